@@ -1,0 +1,66 @@
+// The mvis nodelet: loads the rig, subscribes to every sensor in it, and publishes odometry,
+// TF, the calibration and diagnostics. It converts and forwards; the work happens in the core.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <image_transport/image_transport.h>
+#include <mvis/TagDetectionArray.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Imu.h>
+
+#include "mvis/rig/rig.h"
+#include "mvis/ros/nodelet_options.h"
+
+namespace mvis {
+
+class MvisNodelet : public nodelet::Nodelet {
+ public:
+  MvisNodelet() = default;
+
+ private:
+  // What arrives from one sensor: counts and stamps for diagnostics.
+  struct SensorTraffic {
+    std::string name;
+    std::string topic;
+    double nominal_rate_hz = 0.0;
+    std::uint64_t received = 0;
+    std::uint64_t rejected = 0;
+    ros::WallTime last_arrival;
+    std::uint64_t received_at_last_report = 0;
+    ros::WallTime last_report;
+  };
+
+  void onInit() override;
+  // Leaves the nodelet idle, saying why in the log and in diagnostics.
+  void stayDown(const std::string& reason);
+  void subscribeSensors();
+
+  void onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg);
+  void onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg);
+  void onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg);
+  void publishDiagnostics();
+
+  NodeletOptions options_;
+  Rig rig_;
+  std::string config_error_;  // non-empty when the nodelet stays down
+
+  std::mutex mutex_;  // guards traffic_
+  std::vector<SensorTraffic> traffic_;  // inertial sensors first, then cameras
+
+  std::unique_ptr<image_transport::ImageTransport> image_transport_;
+  std::vector<ros::Subscriber> subscribers_;
+  std::vector<image_transport::Subscriber> image_subscribers_;
+  ros::Publisher odometry_pub_;
+  ros::Publisher path_pub_;
+  ros::Publisher calibration_pub_;
+  ros::Publisher diagnostics_pub_;
+  ros::WallTimer diagnostics_timer_;
+};
+
+}  // namespace mvis

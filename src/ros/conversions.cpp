@@ -1,0 +1,114 @@
+#include "mvis/ros/conversions.h"
+
+#include <limits>
+
+namespace mvis::ros_conversions {
+namespace {
+
+constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
+
+template <typename Array, typename Derived>
+void fill(Array& out, const Eigen::MatrixBase<Derived>& values) {
+  // Row-major, as the message documents.
+  int i = 0;
+  for (int r = 0; r < values.rows(); ++r) {
+    for (int c = 0; c < values.cols(); ++c) out[i++] = values(r, c);
+  }
+}
+
+template <typename Array>
+void fillUnknown(Array& out) {
+  for (auto& v : out) v = kUnknown;
+}
+
+mvis::InertialCalibration toMsg(const InertialSensor& s, const std::string& frame_prefix) {
+  mvis::InertialCalibration m;
+  m.name = s.name;
+  m.sensor_type = toString(s.type);
+  m.frame_id = frame_prefix + s.name;
+  m.T_i_b = toTransformMsg(s.T_i_b);
+  m.time_offset = s.time_offset;
+  fill(m.Tw, s.intrinsics.Tw);
+  fill(m.Ta, s.intrinsics.Ta);
+  fill(m.Tg, s.intrinsics.Tg);
+  const Eigen::Quaterniond q_acc(s.intrinsics.R_IMUtoACC);
+  m.R_IMUtoACC.x = q_acc.x();
+  m.R_IMUtoACC.y = q_acc.y();
+  m.R_IMUtoACC.z = q_acc.z();
+  m.R_IMUtoACC.w = q_acc.w();
+  if (s.std) {
+    fill(m.rotation_std, s.std->rotation);
+    fill(m.translation_std, s.std->translation);
+    m.time_offset_std = s.std->time_offset;
+    fill(m.Tw_std, s.std->Tw);
+    fill(m.Ta_std, s.std->Ta);
+    fill(m.Tg_std, s.std->Tg);
+    fill(m.R_IMUtoACC_std, s.std->R_IMUtoACC);
+  } else {
+    fillUnknown(m.rotation_std);
+    fillUnknown(m.translation_std);
+    m.time_offset_std = kUnknown;
+    fillUnknown(m.Tw_std);
+    fillUnknown(m.Ta_std);
+    fillUnknown(m.Tg_std);
+    fillUnknown(m.R_IMUtoACC_std);
+  }
+  return m;
+}
+
+mvis::CameraCalibration toMsg(const Camera& c, const std::string& frame_prefix) {
+  mvis::CameraCalibration m;
+  m.name = c.name;
+  m.frame_id = frame_prefix + c.name;
+  m.T_cam_imu = toTransformMsg(c.T_cam_imu);
+  m.timeshift_cam_imu = c.timeshift_cam_imu;
+  fill(m.intrinsics, c.intrinsics);
+  m.distortion_model = toString(c.distortion_model);
+  fill(m.distortion_coeffs, c.distortion_coeffs);
+  m.resolution[0] = static_cast<uint32_t>(c.resolution[0]);
+  m.resolution[1] = static_cast<uint32_t>(c.resolution[1]);
+  if (c.std) {
+    fill(m.rotation_std, c.std->rotation);
+    fill(m.translation_std, c.std->translation);
+    m.timeshift_cam_imu_std = c.std->timeshift_cam_imu;
+    fill(m.intrinsics_std, c.std->intrinsics);
+    fill(m.distortion_coeffs_std, c.std->distortion_coeffs);
+  } else {
+    fillUnknown(m.rotation_std);
+    fillUnknown(m.translation_std);
+    m.timeshift_cam_imu_std = kUnknown;
+    fillUnknown(m.intrinsics_std);
+    fillUnknown(m.distortion_coeffs_std);
+  }
+  return m;
+}
+
+}  // namespace
+
+ros::Time toRosTime(TimeNs stamp_ns) {
+  ros::Time t;
+  t.fromNSec(static_cast<uint64_t>(stamp_ns));
+  return t;
+}
+
+geometry_msgs::Transform toTransformMsg(const SE3& T) {
+  geometry_msgs::Transform m;
+  m.translation.x = T.p.x();
+  m.translation.y = T.p.y();
+  m.translation.z = T.p.z();
+  m.rotation.x = T.q.x();
+  m.rotation.y = T.q.y();
+  m.rotation.z = T.q.z();
+  m.rotation.w = T.q.w();
+  return m;
+}
+
+mvis::Calibration toCalibrationMsg(const Rig& rig, const std::string& frame_prefix) {
+  mvis::Calibration msg;
+  msg.header.frame_id = frame_prefix + rig.baseImu().name;
+  for (const auto& s : rig.inertial) msg.inertial.push_back(toMsg(s, frame_prefix));
+  for (const auto& c : rig.cameras) msg.cameras.push_back(toMsg(c, frame_prefix));
+  return msg;
+}
+
+}  // namespace mvis::ros_conversions

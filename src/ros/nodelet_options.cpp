@@ -1,0 +1,31 @@
+#include "mvis/ros/nodelet_options.h"
+
+namespace mvis {
+
+NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
+  NodeletOptions o;
+  nh.param("config_dir", o.config_dir, o.config_dir);
+  nh.param("world_frame", o.world_frame, o.world_frame);
+  nh.param("frame_prefix", o.frame_prefix, o.frame_prefix);
+  nh.param("camera_input", o.camera_input, o.camera_input);
+  nh.param("diagnostics_period", o.diagnostics_period_s, o.diagnostics_period_s);
+  nh.param("sensor_timeout", o.sensor_timeout_s, o.sensor_timeout_s);
+  return o;
+}
+
+std::string NodeletOptions::validate() const {
+  if (config_dir.empty()) {
+    return "parameter ~config_dir is not set (the directory holding kalibr_imu_chain.yaml, "
+           "kalibr_imucam_chain.yaml and optionally aprilgrid.yaml)";
+  }
+  if (world_frame.empty()) return "parameter ~world_frame must not be empty";
+  if (camera_input != "image" && camera_input != "tag_detections") {
+    return "parameter ~camera_input must be 'image' or 'tag_detections', got '" + camera_input +
+           "'";
+  }
+  if (!(diagnostics_period_s > 0.0)) return "parameter ~diagnostics_period must be positive";
+  if (!(sensor_timeout_s > 0.0)) return "parameter ~sensor_timeout must be positive";
+  return "";
+}
+
+}  // namespace mvis

@@ -1,0 +1,30 @@
+# Tests: gtest unit tests of the core, build-shape checks, and rostests. Run by `ctest`.
+
+# Core unit tests are held to the same rule as the core: no ROS headers.
+function(mvis_core_test name)
+  catkin_add_gtest(${name} ${ARGN})
+  target_link_libraries(${name} mvis_core gtest_main)
+  target_include_directories(${name} BEFORE PRIVATE ${MVIS_ROS_GUARD_DIR})
+  target_compile_definitions(${name} PRIVATE MVIS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+endfunction()
+
+mvis_core_test(test_lie test/unit/test_lie.cpp)
+mvis_core_test(test_rig_io test/unit/test_rig_io.cpp test/unit/test_rig_io_errors.cpp)
+
+# A ROS include inside the core must fail to compile, with a message that says why.
+add_library(mvis_ros_guard_probe OBJECT EXCLUDE_FROM_ALL test/unit/ros_include_guard_probe.cpp)
+target_include_directories(mvis_ros_guard_probe BEFORE PRIVATE ${MVIS_ROS_GUARD_DIR})
+target_link_libraries(mvis_ros_guard_probe PRIVATE mvis_core)
+add_test(NAME core_rejects_ros_includes
+  COMMAND ${CMAKE_COMMAND} --build ${CMAKE_BINARY_DIR} --target mvis_ros_guard_probe)
+set_tests_properties(core_rejects_ros_includes PROPERTIES
+  PASS_REGULAR_EXPRESSION "mvis_core must not include ROS headers \\(ros/ros.h\\)")
+
+# mvis_core links no ROS library.
+add_test(NAME core_links_without_ros
+  COMMAND ${CMAKE_COMMAND} -DLIBRARY=$<TARGET_FILE:mvis_core>
+          -P ${PROJECT_SOURCE_DIR}/test/unit/check_no_ros_link.cmake)
+
+find_package(rostest REQUIRED)
+add_rostest(test/ros/nodelet_loads.test DEPENDENCIES mvis_ros mvis_node)
+add_rostest(test/ros/bad_config.test DEPENDENCIES mvis_ros mvis_node)
