@@ -9,8 +9,9 @@ int main(int argc, char** argv) {
   const nodelet::M_string remappings(ros::names::getRemappings());
   const nodelet::V_string nodelet_argv;
   if (!loader.load(ros::this_node::getName(), "mvis/MvisNodelet", remappings, nodelet_argv)) {
-    ROS_FATAL("mvis_node: could not load the nodelet mvis/MvisNodelet (is the package on "
-              "ROS_PACKAGE_PATH? source devel/setup.bash)");
+    ROS_FATAL(
+        "mvis_node: could not load the nodelet mvis/MvisNodelet (is the package on "
+        "ROS_PACKAGE_PATH? source devel/setup.bash)");
     return 1;
   }
   ros::spin();

@@ -1,11 +1,11 @@
 #include "mvis/ros/mvis_nodelet.h"
 
-#include <cmath>
-#include <cstdio>
-
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+
+#include <cmath>
+#include <cstdio>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "mvis/rig/rig_io.h"
@@ -88,8 +88,7 @@ void MvisNodelet::subscribeSensors() {
     if (options_.camera_input == "image") {
       traffic_.push_back({cam.name, cam.rostopic, 0.0, 0, 0, {}, 0, now});
       image_subscribers_.push_back(image_transport_->subscribe(
-          cam.rostopic, 20,
-          [this, c](const sensor_msgs::ImageConstPtr& msg) { onImage(c, msg); }));
+          cam.rostopic, 20, [this, c](const sensor_msgs::ImageConstPtr& msg) { onImage(c, msg); }));
     } else {
       const std::string topic = cam.rostopic + "/tag_detections";
       traffic_.push_back({cam.name, topic, 0.0, 0, 0, {}, 0, now});
@@ -121,8 +120,8 @@ void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& 
   t.last_arrival = ros::WallTime::now();
   if (msg->width == 0 || msg->height == 0 || msg->data.empty()) {
     ++t.rejected;
-    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << rig_.cameras[camera].name << " ("
-                                               << t.topic << "): dropped an empty image");
+    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << rig_.cameras[camera].name << " (" << t.topic
+                                               << "): dropped an empty image");
     return;
   }
   ++t.received;

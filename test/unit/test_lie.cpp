@@ -1,8 +1,8 @@
 // SO(3)/SE(3) toolbox against closed forms and central differences.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "mvis/common/lie.h"
 
@@ -69,16 +69,16 @@ TEST(Lie, RightJacobianSO3MatchesNumeric) {
                          (2 * kStep);
       }
       EXPECT_LT((numeric - lie::rightJacobianSO3(phi)).cwiseAbs().maxCoeff(), kJacobianTol);
-      EXPECT_LT((lie::rightJacobianInvSO3(phi) * lie::rightJacobianSO3(phi) -
-                 Eigen::Matrix3d::Identity())
-                    .cwiseAbs()
-                    .maxCoeff(),
-                1e-12);
-      EXPECT_LT((lie::leftJacobianInvSO3(phi) * lie::leftJacobianSO3(phi) -
-                 Eigen::Matrix3d::Identity())
-                    .cwiseAbs()
-                    .maxCoeff(),
-                1e-12);
+      EXPECT_LT(
+          (lie::rightJacobianInvSO3(phi) * lie::rightJacobianSO3(phi) - Eigen::Matrix3d::Identity())
+              .cwiseAbs()
+              .maxCoeff(),
+          1e-12);
+      EXPECT_LT(
+          (lie::leftJacobianInvSO3(phi) * lie::leftJacobianSO3(phi) - Eigen::Matrix3d::Identity())
+              .cwiseAbs()
+              .maxCoeff(),
+          1e-12);
     }
   }
 }
@@ -90,9 +90,9 @@ TEST(Lie, LeftJacobianSO3MatchesNumeric) {
   Eigen::Matrix3d numeric;
   for (int i = 0; i < 3; ++i) {
     const Eigen::Vector3d d = Eigen::Vector3d::Unit(i) * kStep;
-    numeric.col(i) = (lie::logSO3(lie::expSO3(phi + d) * R_inv) -
-                      lie::logSO3(lie::expSO3(phi - d) * R_inv)) /
-                     (2 * kStep);
+    numeric.col(i) =
+        (lie::logSO3(lie::expSO3(phi + d) * R_inv) - lie::logSO3(lie::expSO3(phi - d) * R_inv)) /
+        (2 * kStep);
   }
   EXPECT_LT((numeric - lie::leftJacobianSO3(phi)).cwiseAbs().maxCoeff(), kJacobianTol);
 }
@@ -117,12 +117,12 @@ TEST(Lie, SE3JacobiansMatchNumeric) {
       Matrix6d right, left;
       for (int i = 0; i < 6; ++i) {
         const Vector6d d = Vector6d::Unit(i) * kStep;
-        right.col(i) = (lie::logSE3(T_inv * lie::expSE3(xi + d)) -
-                        lie::logSE3(T_inv * lie::expSE3(xi - d))) /
-                       (2 * kStep);
-        left.col(i) = (lie::logSE3(lie::expSE3(xi + d) * T_inv) -
-                       lie::logSE3(lie::expSE3(xi - d) * T_inv)) /
-                      (2 * kStep);
+        right.col(i) =
+            (lie::logSE3(T_inv * lie::expSE3(xi + d)) - lie::logSE3(T_inv * lie::expSE3(xi - d))) /
+            (2 * kStep);
+        left.col(i) =
+            (lie::logSE3(lie::expSE3(xi + d) * T_inv) - lie::logSE3(lie::expSE3(xi - d) * T_inv)) /
+            (2 * kStep);
       }
       EXPECT_LT((right - lie::rightJacobianSE3(xi)).cwiseAbs().maxCoeff(), kJacobianTol)
           << "xi " << xi.transpose();

@@ -1,8 +1,8 @@
 // Rig files: reading the shipped configs, and writing then reading gives the same rig.
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 
 #include "mvis/rig/rig_io.h"
 #include "rig_test_util.h"
@@ -45,8 +45,7 @@ void expectSameRig(const Rig& a, const Rig& b) {
     EXPECT_EQ(x.intrinsics.Tw, y.intrinsics.Tw);
     EXPECT_EQ(x.intrinsics.Ta, y.intrinsics.Ta);
     EXPECT_EQ(x.intrinsics.Tg, y.intrinsics.Tg);
-    EXPECT_LT((x.intrinsics.R_IMUtoACC - y.intrinsics.R_IMUtoACC).cwiseAbs().maxCoeff(),
-              kRoundOff);
+    EXPECT_LT((x.intrinsics.R_IMUtoACC - y.intrinsics.R_IMUtoACC).cwiseAbs().maxCoeff(), kRoundOff);
     ASSERT_EQ(x.std.has_value(), y.std.has_value());
     if (x.std) {
       EXPECT_EQ(x.std->rotation, y.std->rotation);
@@ -165,8 +164,7 @@ TEST(RigIo, AcceptsTImuCamAsTheInverse) {
   std::string text = "cam0:\n  T_imu_cam:\n";
   for (int r = 0; r < 4; ++r) {
     text += "    - [" + std::to_string(T_imu_cam(r, 0)) + ", " + std::to_string(T_imu_cam(r, 1)) +
-            ", " + std::to_string(T_imu_cam(r, 2)) + ", " + std::to_string(T_imu_cam(r, 3)) +
-            "]\n";
+            ", " + std::to_string(T_imu_cam(r, 2)) + ", " + std::to_string(T_imu_cam(r, 3)) + "]\n";
   }
   text += test::validCamChain().substr(test::validCamChain().find("  cam_overlaps"));
   const auto openvins = parseCamChain(text, "cam.yaml");

@@ -1,8 +1,8 @@
 // A bad configuration file is refused with one exact message: FILE: SENSOR: KEY: problem.
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 
 #include "mvis/rig/rig_io.h"
 #include "rig_test_util.h"
@@ -34,8 +34,8 @@ TEST(RigIoErrors, MissingKey) {
             "imu.yaml: imu1: rostopic: missing");
   EXPECT_EQ(imuError(replaced(validImuChain(), "  gyroscope_random_walk: 1.0e-5\n", "")),
             "imu.yaml: imu2: gyroscope_random_walk: missing");
-  EXPECT_EQ(camError(replaced(validCamChain(), "  intrinsics: [458.654, 457.296, 367.215, 248.375]\n",
-                              "")),
+  EXPECT_EQ(camError(replaced(validCamChain(),
+                              "  intrinsics: [458.654, 457.296, 367.215, 248.375]\n", "")),
             "cam.yaml: cam0: intrinsics: missing");
   const std::string no_extrinsic = validCamChain().substr(validCamChain().find("  cam_overlaps"));
   EXPECT_EQ(camError("cam0:\n" + no_extrinsic), "cam.yaml: cam0: T_cam_imu: missing");
@@ -79,13 +79,14 @@ TEST(RigIoErrors, NegativeNoiseDensity) {
 TEST(RigIoErrors, UnknownModel) {
   EXPECT_EQ(imuError(replaced(validImuChain(), "model: rpng", "model: kalibr")),
             "imu.yaml: imu0: model: unknown model 'kalibr' (expected calibrated or rpng)");
-  EXPECT_EQ(imuError(replaced(validImuChain(), "sensor_type: gyroscope", "sensor_type: magnetometer")),
-            "imu.yaml: imu2: sensor_type: unknown sensor type 'magnetometer' (expected imu or "
-            "gyroscope)");
-  EXPECT_EQ(camError(replaced(validCamChain(), "distortion_model: radtan",
-                              "distortion_model: fov")),
-            "cam.yaml: cam0: distortion_model: unknown distortion model 'fov' (expected radtan or "
-            "equidistant)");
+  EXPECT_EQ(
+      imuError(replaced(validImuChain(), "sensor_type: gyroscope", "sensor_type: magnetometer")),
+      "imu.yaml: imu2: sensor_type: unknown sensor type 'magnetometer' (expected imu or "
+      "gyroscope)");
+  EXPECT_EQ(
+      camError(replaced(validCamChain(), "distortion_model: radtan", "distortion_model: fov")),
+      "cam.yaml: cam0: distortion_model: unknown distortion model 'fov' (expected radtan or "
+      "equidistant)");
   EXPECT_EQ(camError(replaced(validCamChain(), "camera_model: pinhole", "camera_model: omni")),
             "cam.yaml: cam0: camera_model: unsupported camera model 'omni' (mvis supports "
             "pinhole)");
@@ -100,9 +101,9 @@ TEST(RigIoErrors, CalibratedModelFixesIntrinsics) {
 TEST(RigIoErrors, DuplicateTopic) {
   EXPECT_EQ(imuError(replaced(validImuChain(), "rostopic: /gyro", "rostopic: /imu0")),
             "imu.yaml: imu2: rostopic: '/imu0' is already used by imu0");
-  const std::string two_cameras =
-      validCamChain() + replaced(validCamChain(), "cam0:", "cam1:");
-  EXPECT_EQ(camError(two_cameras), "cam.yaml: cam1: rostopic: '/cam0/image_raw' is already used by cam0");
+  const std::string two_cameras = validCamChain() + replaced(validCamChain(), "cam0:", "cam1:");
+  EXPECT_EQ(camError(two_cameras),
+            "cam.yaml: cam1: rostopic: '/cam0/image_raw' is already used by cam0");
 }
 
 TEST(RigIoErrors, DuplicateTopicAcrossFiles) {
@@ -167,14 +168,12 @@ TEST(RigIoErrors, AprilGrid) {
   EXPECT_TRUE(parseAprilGrid(valid, "grid.yaml").ok());
   EXPECT_EQ(parseAprilGrid(valid + "tagFamily: tag99h1\n", "grid.yaml").status().message(),
             "grid.yaml: tagFamily: unknown tag family 'tag99h1'");
-  EXPECT_EQ(parseAprilGrid(replaced(valid, "tagCols: 6", "tagCols: 2.5"), "grid.yaml")
-                .status()
-                .message(),
-            "grid.yaml: tagCols: must be a positive whole number, got 2.5");
-  EXPECT_EQ(parseAprilGrid(replaced(valid, "aprilgrid", "checkerboard"), "grid.yaml")
-                .status()
-                .message(),
-            "grid.yaml: target_type: unsupported target type 'checkerboard' (expected aprilgrid)");
+  EXPECT_EQ(
+      parseAprilGrid(replaced(valid, "tagCols: 6", "tagCols: 2.5"), "grid.yaml").status().message(),
+      "grid.yaml: tagCols: must be a positive whole number, got 2.5");
+  EXPECT_EQ(
+      parseAprilGrid(replaced(valid, "aprilgrid", "checkerboard"), "grid.yaml").status().message(),
+      "grid.yaml: target_type: unsupported target type 'checkerboard' (expected aprilgrid)");
 }
 
 TEST(RigIoErrors, MissingDirectoryAndFile) {

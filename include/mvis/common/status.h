@@ -34,7 +34,7 @@ template <typename T>
 class StatusOr {
  public:
   StatusOr(T value) : value_(std::move(value)), status_(Status::Ok()) {}  // NOLINT
-  StatusOr(Status status) : status_(std::move(status)) {}                  // NOLINT
+  StatusOr(Status status) : status_(std::move(status)) {}                 // NOLINT
 
   bool ok() const { return value_.has_value(); }
   const Status& status() const { return status_; }

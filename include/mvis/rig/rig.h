@@ -4,12 +4,11 @@
 // doc/conventions.md: imu0 is the base IMU {I}; transforms are T_A_B with p_A = T_A_B * p_B.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "mvis/common/lie.h"
 
@@ -81,8 +80,8 @@ struct CameraCalibrationStd {
 
 // One entry camN of kalibr_imucam_chain.yaml: a pinhole camera.
 struct Camera {
-  std::string name;  // cam0, cam1, ...
-  SE3 T_cam_imu;     // p_cam = T_cam_imu * p_imu0 [m]
+  std::string name;                // cam0, cam1, ...
+  SE3 T_cam_imu;                   // p_cam = T_cam_imu * p_imu0 [m]
   double timeshift_cam_imu = 0.0;  // [s], t_imu0 = t_cam + timeshift_cam_imu
   DistortionModel distortion_model = DistortionModel::kRadtan;
   // radtan [k1 k2 p1 p2] or equidistant [k1 k2 k3 k4]

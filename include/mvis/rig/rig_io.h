@@ -20,9 +20,8 @@ inline constexpr const char* kAprilGridFile = "aprilgrid.yaml";
 
 // Each parser takes the file's text and the path used in messages.
 StatusOr<std::vector<InertialSensor>> parseImuChain(const std::string& yaml_text,
-                                                   const std::string& path);
-StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text,
-                                            const std::string& path);
+                                                    const std::string& path);
+StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text, const std::string& path);
 StatusOr<AprilGrid> parseAprilGrid(const std::string& yaml_text, const std::string& path);
 
 // Loads a configuration directory: the two chain files are required, aprilgrid.yaml is

@@ -1,11 +1,11 @@
 // Conversions between ROS messages and the core's plain types. The only place both meet.
 #pragma once
 
-#include <string>
-
 #include <geometry_msgs/Transform.h>
 #include <mvis/Calibration.h>
 #include <ros/time.h>
+
+#include <string>
 
 #include "mvis/common/lie.h"
 #include "mvis/common/time.h"

@@ -2,17 +2,17 @@
 // TF, the calibration and diagnostics. It converts and forwards; the work happens in the core.
 #pragma once
 
-#include <memory>
-#include <mutex>
-#include <string>
-#include <vector>
-
 #include <image_transport/image_transport.h>
 #include <mvis/TagDetectionArray.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
 
 #include "mvis/rig/rig.h"
 #include "mvis/ros/nodelet_options.h"
@@ -50,7 +50,7 @@ class MvisNodelet : public nodelet::Nodelet {
   Rig rig_;
   std::string config_error_;  // non-empty when the nodelet stays down
 
-  std::mutex mutex_;  // guards traffic_
+  std::mutex mutex_;                    // guards traffic_
   std::vector<SensorTraffic> traffic_;  // inertial sensors first, then cameras
 
   std::unique_ptr<image_transport::ImageTransport> image_transport_;

@@ -1,16 +1,16 @@
 // The nodelet's ROS parameters (private namespace), documented key by key in config/mvis.yaml.
 #pragma once
 
-#include <string>
-
 #include <ros/node_handle.h>
+
+#include <string>
 
 namespace mvis {
 
 struct NodeletOptions {
-  std::string config_dir;            // directory with the rig's yaml files (required)
-  std::string world_frame = "odom";  // TF/odometry parent frame (REP-105)
-  std::string frame_prefix;          // prepended to sensor names to form their TF frames
+  std::string config_dir;              // directory with the rig's yaml files (required)
+  std::string world_frame = "odom";    // TF/odometry parent frame (REP-105)
+  std::string frame_prefix;            // prepended to sensor names to form their TF frames
   std::string camera_input = "image";  // "image" or "tag_detections"
   double diagnostics_period_s = 1.0;   // [s] between diagnostics messages
   double sensor_timeout_s = 1.0;       // [s] silence after which a sensor counts as stopped

@@ -1,8 +1,7 @@
 #include "mvis/common/lie.h"
 
-#include <cmath>
-
 #include <Eigen/SVD>
+#include <cmath>
 
 namespace mvis {
 
@@ -118,9 +117,7 @@ Eigen::Matrix3d rightJacobianInvSO3(const Eigen::Vector3d& phi) {
 
 Eigen::Matrix3d leftJacobianSO3(const Eigen::Vector3d& phi) { return rightJacobianSO3(-phi); }
 
-Eigen::Matrix3d leftJacobianInvSO3(const Eigen::Vector3d& phi) {
-  return rightJacobianInvSO3(-phi);
-}
+Eigen::Matrix3d leftJacobianInvSO3(const Eigen::Vector3d& phi) { return rightJacobianInvSO3(-phi); }
 
 SE3 expSE3(const Vector6d& xi) {
   const Eigen::Vector3d phi = xi.head<3>();

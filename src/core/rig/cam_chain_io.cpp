@@ -14,16 +14,15 @@ using rig_io::formatMatrix;
 using rig_io::formatNumber;
 using rig_io::formatRow;
 
-const std::set<std::string> kCameraKeys = {
-    "T_cam_imu",         "T_imu_cam",         "timeshift_cam_imu", "camera_model",
-    "distortion_model",  "distortion_coeffs", "intrinsics",        "resolution",
-    "rostopic"};
+const std::set<std::string> kCameraKeys = {"T_cam_imu",    "T_imu_cam",        "timeshift_cam_imu",
+                                           "camera_model", "distortion_model", "distortion_coeffs",
+                                           "intrinsics",   "resolution",       "rostopic"};
 // Keys other tools write that mvis does not use.
 const std::set<std::string> kIgnoredCameraKeys = {"cam_overlaps"};
 
 std::optional<CameraCalibrationStd> readStd(const EntryReader& entry) {
-  const std::vector<std::string> keys = {"T_cam_imu_std", "timeshift_cam_imu_std",
-                                         "intrinsics_std", "distortion_coeffs_std"};
+  const std::vector<std::string> keys = {"T_cam_imu_std", "timeshift_cam_imu_std", "intrinsics_std",
+                                         "distortion_coeffs_std"};
   bool any = false;
   for (const auto& key : keys) any = any || entry.has(key);
   if (!any) return std::nullopt;
@@ -61,8 +60,8 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
 
   const std::string camera_model = entry.text("camera_model", "pinhole");
   if (camera_model != "pinhole") {
-    entry.fail("camera_model", "unsupported camera model '" + camera_model +
-                                   "' (mvis supports pinhole)");
+    entry.fail("camera_model",
+               "unsupported camera model '" + camera_model + "' (mvis supports pinhole)");
   }
   const std::string distortion = entry.text("distortion_model");
   if (distortion == "radtan") {
@@ -70,8 +69,8 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
   } else if (distortion == "equidistant") {
     cam.distortion_model = DistortionModel::kEquidistant;
   } else {
-    entry.fail("distortion_model", "unknown distortion model '" + distortion +
-                                       "' (expected radtan or equidistant)");
+    entry.fail("distortion_model",
+               "unknown distortion model '" + distortion + "' (expected radtan or equidistant)");
   }
   cam.distortion_coeffs = entry.vector("distortion_coeffs", 4);
   cam.intrinsics = entry.vector("intrinsics", 4);
@@ -93,8 +92,7 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
 
 }  // namespace
 
-StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text,
-                                            const std::string& path) {
+StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text, const std::string& path) {
   try {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<Camera> cameras;

@@ -14,11 +14,21 @@ using rig_io::formatMatrix;
 using rig_io::formatNumber;
 using rig_io::formatRow;
 
-const std::set<std::string> kImuKeys = {
-    "T_i_b",       "time_offset", "rostopic", "update_rate", "sensor_type",
-    "model",       "Tw",          "R_IMUtoGYRO", "Ta",       "R_IMUtoACC",
-    "Tg",          "accelerometer_noise_density", "accelerometer_random_walk",
-    "gyroscope_noise_density",    "gyroscope_random_walk"};
+const std::set<std::string> kImuKeys = {"T_i_b",
+                                        "time_offset",
+                                        "rostopic",
+                                        "update_rate",
+                                        "sensor_type",
+                                        "model",
+                                        "Tw",
+                                        "R_IMUtoGYRO",
+                                        "Ta",
+                                        "R_IMUtoACC",
+                                        "Tg",
+                                        "accelerometer_noise_density",
+                                        "accelerometer_random_walk",
+                                        "gyroscope_noise_density",
+                                        "gyroscope_random_walk"};
 
 constexpr double kExactTolerance = 1e-9;  // for "must be identity" / "upper triangular"
 
@@ -52,8 +62,9 @@ ImuIntrinsics readIntrinsics(const EntryReader& entry, ImuModel model) {
     const auto check = [&](const char* key, const Eigen::Matrix3d& value,
                            const Eigen::Matrix3d& expected) {
       if (!(value - expected).isZero(kExactTolerance)) {
-        entry.fail(key, "model is calibrated, which fixes it at its default; set model: rpng "
-                        "to use it");
+        entry.fail(key,
+                   "model is calibrated, which fixes it at its default; set model: rpng "
+                   "to use it");
       }
     };
     check("Tw", in.Tw, identity.Tw);
@@ -151,7 +162,7 @@ void writeStd(std::ostream& out, const InertialCalibrationStd& std) {
 }  // namespace
 
 StatusOr<std::vector<InertialSensor>> parseImuChain(const std::string& yaml_text,
-                                                   const std::string& path) {
+                                                    const std::string& path) {
   try {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<InertialSensor> sensors;
@@ -187,8 +198,8 @@ std::string imuChainToYaml(const Rig& rig) {
     out << "  gyroscope_noise_density: " << formatNumber(s.noise.gyroscope_noise_density) << "\n";
     out << "  gyroscope_random_walk: " << formatNumber(s.noise.gyroscope_random_walk) << "\n";
     if (s.type == InertialType::kImu) {
-      out << "  accelerometer_noise_density: "
-          << formatNumber(s.noise.accelerometer_noise_density) << "\n";
+      out << "  accelerometer_noise_density: " << formatNumber(s.noise.accelerometer_noise_density)
+          << "\n";
       out << "  accelerometer_random_walk: " << formatNumber(s.noise.accelerometer_random_walk)
           << "\n";
     }

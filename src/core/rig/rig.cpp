@@ -5,9 +5,7 @@
 
 namespace mvis {
 
-const char* toString(InertialType type) {
-  return type == InertialType::kImu ? "imu" : "gyroscope";
-}
+const char* toString(InertialType type) { return type == InertialType::kImu ? "imu" : "gyroscope"; }
 
 const char* toString(ImuModel model) {
   return model == ImuModel::kCalibrated ? "calibrated" : "rpng";
@@ -46,14 +44,14 @@ std::string Rig::summary() const {
                   "%s camera    %-28s %dx%d  %-11s f [%.1f %.1f]  p_imu0_%s [%.3f %.3f %.3f] m  "
                   "shift %+.4f s\n",
                   c.name.c_str(), c.rostopic.c_str(), c.resolution[0], c.resolution[1],
-                  toString(c.distortion_model), c.intrinsics[0], c.intrinsics[1],
-                  c.name.c_str(), p_b_c.x(), p_b_c.y(), p_b_c.z(), c.timeshift_cam_imu);
+                  toString(c.distortion_model), c.intrinsics[0], c.intrinsics[1], c.name.c_str(),
+                  p_b_c.x(), p_b_c.y(), p_b_c.z(), c.timeshift_cam_imu);
     out << line;
   }
   if (target) {
     std::snprintf(line, sizeof(line), "target aprilgrid %dx%d %s, tag %.4f m, spacing %.3f\n",
-                  target->tag_cols, target->tag_rows, target->tag_family.c_str(),
-                  target->tag_size, target->tag_spacing);
+                  target->tag_cols, target->tag_rows, target->tag_family.c_str(), target->tag_size,
+                  target->tag_spacing);
     out << line;
   } else {
     out << "target none: tag corners are estimated as landmarks\n";
@@ -63,8 +61,8 @@ std::string Rig::summary() const {
 
 const std::vector<std::string>& supportedTagFamilies() {
   static const std::vector<std::string> kFamilies = {
-      "tag36h11",         "tag25h9",          "tag16h5",         "tagCircle21h7",
-      "tagCircle49h12",   "tagStandard41h12", "tagStandard52h13", "tagCustom48h12"};
+      "tag36h11",       "tag25h9",          "tag16h5",          "tagCircle21h7",
+      "tagCircle49h12", "tagStandard41h12", "tagStandard52h13", "tagCustom48h12"};
   return kFamilies;
 }
 

@@ -76,8 +76,10 @@ std::string aprilGridToYaml(const AprilGrid& grid) {
 StatusOr<Rig> loadRig(const std::string& directory) {
   const fs::path dir(directory);
   if (!fs::is_directory(dir)) {
-    return Status::Error(directory + ": not a directory (expected a configuration directory "
-                                     "holding " + kImuChainFile + " and " + kCamChainFile + ")");
+    return Status::Error(directory +
+                         ": not a directory (expected a configuration directory "
+                         "holding " +
+                         kImuChainFile + " and " + kCamChainFile + ")");
   }
   Rig rig;
   const fs::path imu_path = dir / kImuChainFile;

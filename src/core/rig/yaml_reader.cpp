@@ -109,8 +109,8 @@ Eigen::VectorXd EntryReader::vector(const std::string& key, int size) const {
 Eigen::MatrixXd EntryReader::matrix(const std::string& key, int rows, int cols) const {
   if (!has(key)) fail(key, "missing");
   const YAML::Node node = node_[key];
-  const std::string shape = "expected " + std::to_string(rows) + " rows of " +
-                            std::to_string(cols) + " numbers";
+  const std::string shape =
+      "expected " + std::to_string(rows) + " rows of " + std::to_string(cols) + " numbers";
   if (!node.IsSequence() || static_cast<int>(node.size()) != rows) fail(key, shape);
   Eigen::MatrixXd M(rows, cols);
   for (int r = 0; r < rows; ++r) {
@@ -123,8 +123,7 @@ Eigen::MatrixXd EntryReader::matrix(const std::string& key, int rows, int cols) 
 
 Eigen::Matrix3d EntryReader::checkedRotation(const Eigen::Matrix3d& R, const std::string& key,
                                              const std::string& what) const {
-  const double error =
-      (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (error > kRotationTolerance) {
     fail(key, what + " is not orthonormal (max |R^T R - I| = " + formatG(error) + ")");
   }
@@ -192,8 +191,8 @@ std::vector<std::string> numberedEntries(const YAML::Node& root, const std::stri
     const std::string key = entry.first.as<std::string>();
     std::smatch match;
     if (!std::regex_match(key, match, pattern) || match[1].str().size() > 6) {
-      throw ConfigError(path + ": " + key + ": unexpected top-level key (expected " + stem +
-                        "0, " + stem + "1, ...)");
+      throw ConfigError(path + ": " + key + ": unexpected top-level key (expected " + stem + "0, " +
+                        stem + "1, ...)");
     }
     found[std::stoi(match[1].str())] = key;
   }
@@ -202,8 +201,8 @@ std::vector<std::string> numberedEntries(const YAML::Node& root, const std::stri
   for (const auto& [index, key] : found) {
     const std::string expected = stem + std::to_string(names.size());
     if (index != static_cast<int>(names.size())) {
-      throw ConfigError(path + ": " + expected + ": missing (sensors are numbered " + stem +
-                        "0, " + stem + "1, ... without gaps)");
+      throw ConfigError(path + ": " + expected + ": missing (sensors are numbered " + stem + "0, " +
+                        stem + "1, ... without gaps)");
     }
     if (key != expected) {
       throw ConfigError(path + ": " + key + ": write it as " + expected + " (no leading zeros)");

@@ -3,13 +3,13 @@
 // the parsers and leave them as a Status; no exception crosses the public interface.
 #pragma once
 
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <yaml-cpp/yaml.h>
 
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"
@@ -33,9 +33,9 @@ class EntryReader {
   bool has(const std::string& key) const;
   double number(const std::string& key) const;  // finite
   double number(const std::string& key, double fallback) const;
-  double positiveNumber(const std::string& key) const;     // > 0
-  int positiveInteger(const std::string& key) const;       // > 0
-  std::string text(const std::string& key) const;          // a non-empty scalar
+  double positiveNumber(const std::string& key) const;  // > 0
+  int positiveInteger(const std::string& key) const;    // > 0
+  std::string text(const std::string& key) const;       // a non-empty scalar
   std::string text(const std::string& key, const std::string& fallback) const;
   Eigen::VectorXd vector(const std::string& key, int size) const;
   Eigen::MatrixXd matrix(const std::string& key, int rows, int cols) const;
