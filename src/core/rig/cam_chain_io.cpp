@@ -1,5 +1,4 @@
 // kalibr_imucam_chain.yaml: reading with validation, and writing in the same format.
-#include <map>
 #include <set>
 #include <sstream>
 
@@ -93,24 +92,15 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
 }  // namespace
 
 StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text, const std::string& path) {
-  try {
+  return rig_io::guardedParse(path, [&] {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<Camera> cameras;
-    std::map<std::string, std::string> topics;
     for (const auto& name : rig_io::numberedEntries(root, "cam", path)) {
       cameras.push_back(readCamera(EntryReader(root[name], path, name), name));
-      const auto [it, inserted] = topics.emplace(cameras.back().rostopic, name);
-      if (!inserted) {
-        return Status::Error(path + ": " + name + ": rostopic: '" + it->first +
-                             "' is already used by " + it->second);
-      }
     }
+    rig_io::requireUniqueTopics(cameras, path);
     return cameras;
-  } catch (const rig_io::ConfigError& e) {
-    return Status::Error(e.what());
-  } catch (const YAML::Exception& e) {
-    return Status::Error(path + ": " + e.what());
-  }
+  });
 }
 
 std::string camChainToYaml(const Rig& rig) {

@@ -1,5 +1,4 @@
 // kalibr_imu_chain.yaml: reading with validation, and writing in the same format.
-#include <map>
 #include <set>
 #include <sstream>
 
@@ -163,26 +162,15 @@ void writeStd(std::ostream& out, const InertialCalibrationStd& std) {
 
 StatusOr<std::vector<InertialSensor>> parseImuChain(const std::string& yaml_text,
                                                     const std::string& path) {
-  try {
+  return rig_io::guardedParse(path, [&] {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<InertialSensor> sensors;
     for (const auto& name : rig_io::numberedEntries(root, "imu", path)) {
       sensors.push_back(readInertial(EntryReader(root[name], path, name), name, sensors.empty()));
     }
-    std::map<std::string, std::string> topics;
-    for (const auto& s : sensors) {
-      const auto [it, inserted] = topics.emplace(s.rostopic, s.name);
-      if (!inserted) {
-        return Status::Error(path + ": " + s.name + ": rostopic: '" + s.rostopic +
-                             "' is already used by " + it->second);
-      }
-    }
+    rig_io::requireUniqueTopics(sensors, path);
     return sensors;
-  } catch (const rig_io::ConfigError& e) {
-    return Status::Error(e.what());
-  } catch (const YAML::Exception& e) {
-    return Status::Error(path + ": " + e.what());
-  }
+  });
 }
 
 std::string imuChainToYaml(const Rig& rig) {

@@ -34,7 +34,7 @@ Status writeFile(const fs::path& path, const std::string& text) {
 }  // namespace
 
 StatusOr<AprilGrid> parseAprilGrid(const std::string& yaml_text, const std::string& path) {
-  try {
+  return rig_io::guardedParse(path, [&] {
     const rig_io::EntryReader entry(rig_io::parseYamlText(yaml_text, path), path, "");
     entry.rejectUnknownKeys(
         {"target_type", "tagCols", "tagRows", "tagSize", "tagSpacing", "tagFamily"});
@@ -54,11 +54,7 @@ StatusOr<AprilGrid> parseAprilGrid(const std::string& yaml_text, const std::stri
       entry.fail("tagFamily", "unknown tag family '" + grid.tag_family + "'");
     }
     return grid;
-  } catch (const rig_io::ConfigError& e) {
-    return Status::Error(e.what());
-  } catch (const YAML::Exception& e) {
-    return Status::Error(path + ": " + e.what());
-  }
+  });
 }
 
 std::string aprilGridToYaml(const AprilGrid& grid) {

@@ -69,6 +69,32 @@ class EntryReader {
 std::vector<std::string> numberedEntries(const YAML::Node& root, const std::string& stem,
                                          const std::string& path);
 
+// Runs a parser body, turning its ConfigError or a yaml-cpp exception into a Status.
+template <typename Parse>
+auto guardedParse(const std::string& path, Parse&& parse) -> StatusOr<decltype(parse())> {
+  try {
+    return parse();
+  } catch (const ConfigError& e) {
+    return Status::Error(e.what());
+  } catch (const YAML::Exception& e) {
+    return Status::Error(path + ": " + e.what());
+  }
+}
+
+// Throws "FILE: SENSOR: rostopic: 'T' is already used by OTHER" for the first sensor (anything
+// with .name and .rostopic) whose topic an earlier one uses.
+template <typename Sensor>
+void requireUniqueTopics(const std::vector<Sensor>& sensors, const std::string& path) {
+  for (std::size_t i = 0; i < sensors.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (sensors[i].rostopic == sensors[j].rostopic) {
+        throw ConfigError(path + ": " + sensors[i].name + ": rostopic: '" + sensors[i].rostopic +
+                          "' is already used by " + sensors[j].name);
+      }
+    }
+  }
+}
+
 // Shortest decimal text that reads back as exactly `value`.
 std::string formatNumber(double value);
 // "[a, b, c]"
