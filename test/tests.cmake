@@ -28,3 +28,6 @@ add_test(NAME core_links_without_ros
 find_package(rostest REQUIRED)
 add_rostest(test/ros/nodelet_loads.test DEPENDENCIES mvis_ros mvis_node)
 add_rostest(test/ros/bad_config.test DEPENDENCIES mvis_ros mvis_node)
+
+mvis_core_test(test_tag_detector test/unit/test_tag_detector.cpp)
+mvis_core_test(test_tag_checks test/unit/test_tag_checks.cpp)

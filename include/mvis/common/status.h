@@ -40,7 +40,8 @@ class StatusOr {
   const Status& status() const { return status_; }
   const T& value() const& { return *value_; }
   T& value() & { return *value_; }
-  T&& value() && { return std::move(*value_); }
+  // By value, so that `for (auto& x : f().value())` cannot dangle.
+  T value() && { return std::move(*value_); }
 
  private:
   std::optional<T> value_;

@@ -1,0 +1,63 @@
+// Renders images of a planar AprilTag board (the aprilgrid.yaml layout) with anti-aliasing, for
+// the simulator and for tests with known corners.
+//
+// The camera model enters only through `pixel_to_board`: for a pixel position (u, v) in mvis's
+// convention ((0, 0) at the centre of the top-left pixel) it returns the board point (x, y) [m]
+// seen there, or false if the ray misses the board plane. Any projection with any distortion
+// fits; pinholeToBoard() gives the undistorted pinhole case.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "mvis/common/lie.h"
+#include "mvis/common/status.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+using PixelToBoard = std::function<bool(const Eigen::Vector2d& pixel, Eigen::Vector2d* board)>;
+
+struct RenderOptions {
+  int supersample = 4;        // stratified jittered samples per pixel along each axis (box filter)
+  double black = 25.0;        // intensity of black tag cells [0, 255]
+  double white = 230.0;       // intensity of the white board
+  double background = 110.0;  // where the ray misses the board
+  double margin_tags = 1.0;   // white board beyond the outer tags, in tag pitches
+  double noise_sigma = 0.0;   // Gaussian pixel noise [intensity]
+  std::uint32_t seed = 1;     // for the sample jitter and the noise
+};
+
+class TagBoardRenderer {
+ public:
+  // Fails if the grid's family is unknown.
+  static StatusOr<std::unique_ptr<TagBoardRenderer>> create(const AprilGrid& grid);
+
+  cv::Mat render(int width, int height, const PixelToBoard& pixel_to_board,
+                 const RenderOptions& options) const;
+
+  // Board intensity in [0, 1] (0 black, 1 white) at board point (x, y) [m]; -1 off the board.
+  double reflectance(double x, double y, double margin_tags) const;
+
+ private:
+  TagBoardRenderer() = default;
+  AprilGrid grid_;
+  int total_width_ = 0;      // pattern cells across, including the outer ring
+  int width_at_border_ = 0;  // cells across the tag's detected square
+  std::vector<std::vector<std::uint8_t>> patterns_;  // per tag id, row-major, row 0 = top
+};
+
+// The pinhole camera with intrinsics [fu fv pu pv] and no distortion, looking at the board
+// from pose T_cam_board.
+PixelToBoard pinholeToBoard(const Eigen::Vector4d& intrinsics, const SE3& T_cam_board);
+
+// Pixel position of board point X (z = 0) in that camera.
+Eigen::Vector2d projectPinhole(const Eigen::Vector4d& intrinsics, const SE3& T_cam_board,
+                               const Eigen::Vector3d& X_board);
+
+}  // namespace mvis

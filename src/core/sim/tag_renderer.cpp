@@ -1,0 +1,105 @@
+#include "mvis/sim/tag_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "mvis/frontend/tag_detector.h"
+
+namespace mvis {
+StatusOr<std::unique_ptr<TagBoardRenderer>> TagBoardRenderer::create(const AprilGrid& grid) {
+  std::unique_ptr<TagBoardRenderer> renderer(new TagBoardRenderer());
+  renderer->grid_ = grid;
+  auto patterns = tagFamilyPatterns(grid.tag_family, grid.numTags());
+  if (!patterns.ok()) return patterns.status();
+  renderer->total_width_ = patterns.value().total_width;
+  renderer->width_at_border_ = patterns.value().width_at_border;
+  renderer->patterns_ = std::move(patterns.value().cells);
+  return renderer;
+}
+
+double TagBoardRenderer::reflectance(double x, double y, double margin_tags) const {
+  const double size = grid_.tag_size;
+  const double pitch = (1.0 + grid_.tag_spacing) * size;
+  const double margin = margin_tags * pitch;
+  if (x < -margin || y < -margin || x > grid_.tag_cols * pitch - grid_.tag_spacing * size + margin ||
+      y > grid_.tag_rows * pitch - grid_.tag_spacing * size + margin) {
+    return -1.0;
+  }
+  // Tag cell under (x, y): the pattern's outer ring reaches (total - at_border) / 2 cells past
+  // the detected square on each side.
+  const double cell = size / width_at_border_;
+  const double ring = 0.5 * (total_width_ - width_at_border_) * cell;
+  const int col = static_cast<int>(std::floor((x + ring) / pitch));
+  const int row = static_cast<int>(std::floor((y + ring) / pitch));
+  if (col < 0 || row < 0 || col >= grid_.tag_cols || row >= grid_.tag_rows) return 1.0;
+  const double lx = x - col * pitch + ring;  // from the pattern's left edge
+  const double ly = y - row * pitch + ring;  // from the pattern's bottom edge
+  const int cx = static_cast<int>(std::floor(lx / cell));
+  const int cy = static_cast<int>(std::floor(ly / cell));
+  if (cx < 0 || cy < 0 || cx >= total_width_ || cy >= total_width_) return 1.0;
+  // Board y grows towards the tag's top; pattern rows grow downwards from its top.
+  const int pattern_row = total_width_ - 1 - cy;
+  const auto& pattern = patterns_[row * grid_.tag_cols + col];
+  return pattern[pattern_row * total_width_ + cx] > 127 ? 1.0 : 0.0;
+}
+
+cv::Mat TagBoardRenderer::render(int width, int height, const PixelToBoard& pixel_to_board,
+                                 const RenderOptions& options) const {
+  cv::Mat image(height, width, CV_8UC1);
+  const int n = std::max(1, options.supersample);
+  std::mt19937 rng(options.seed);
+  std::normal_distribution<double> noise(0.0, options.noise_sigma);
+  std::uniform_real_distribution<double> jitter(0.0, 1.0);
+  Eigen::Vector2d board;
+  for (int r = 0; r < height; ++r) {
+    auto* row = image.ptr<std::uint8_t>(r);
+    for (int c = 0; c < width; ++c) {
+      double sum = 0.0;
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+          // Stratified jittered samples over the pixel [c - 0.5, c + 0.5]: their mean is the
+          // exact area average in expectation, where a regular grid would snap straight edges
+          // to multiples of 1 / n pixel.
+          const Eigen::Vector2d pixel(c - 0.5 + (j + jitter(rng)) / n,
+                                      r - 0.5 + (i + jitter(rng)) / n);
+          double value = options.background;
+          if (pixel_to_board(pixel, &board)) {
+            const double reflect = reflectance(board.x(), board.y(), options.margin_tags);
+            if (reflect >= 0.0) value = options.black + reflect * (options.white - options.black);
+          }
+          sum += value;
+        }
+      }
+      double value = sum / (n * n);
+      if (options.noise_sigma > 0.0) value += noise(rng);
+      row[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+    }
+  }
+  return image;
+}
+
+PixelToBoard pinholeToBoard(const Eigen::Vector4d& intrinsics, const SE3& T_cam_board) {
+  const SE3 T_board_cam = T_cam_board.inverse();
+  const Eigen::Matrix3d R = T_board_cam.rotation();
+  const Eigen::Vector3d origin = T_board_cam.p;
+  return [=](const Eigen::Vector2d& pixel, Eigen::Vector2d* board) {
+    const Eigen::Vector3d ray_cam((pixel.x() - intrinsics[2]) / intrinsics[0],
+                                  (pixel.y() - intrinsics[3]) / intrinsics[1], 1.0);
+    const Eigen::Vector3d ray = R * ray_cam;
+    if (std::abs(ray.z()) < 1e-12) return false;
+    const double t = -origin.z() / ray.z();
+    if (t <= 0.0) return false;
+    *board = (origin + t * ray).head<2>();
+    return true;
+  };
+}
+
+Eigen::Vector2d projectPinhole(const Eigen::Vector4d& intrinsics, const SE3& T_cam_board,
+                               const Eigen::Vector3d& X_board) {
+  const Eigen::Vector3d X = T_cam_board * X_board;
+  return Eigen::Vector2d(intrinsics[0] * X.x() / X.z() + intrinsics[2],
+                         intrinsics[1] * X.y() / X.z() + intrinsics[3]);
+}
+
+}  // namespace mvis
