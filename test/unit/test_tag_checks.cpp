@@ -1,7 +1,7 @@
 // Each rejection rule of checkTagFrame, on hand-made observations.
-#include <limits>
-
 #include <gtest/gtest.h>
+
+#include <limits>
 
 #include "mvis/frontend/tag_checks.h"
 
@@ -93,7 +93,7 @@ TEST(TagChecks, RejectsTooManyCorrectedBits) {
 TEST(TagChecks, RejectsDegenerateQuads) {
   TagObservation crossed = square(1, 100, 200);
   std::swap(crossed.corners_px[1], crossed.corners_px[2]);  // a bow tie, not convex
-  TagObservation tiny = square(2, 200, 200, 5.0);            // sides below 6 px
+  TagObservation tiny = square(2, 200, 200, 5.0);           // sides below 6 px
   TagObservation sliver = square(3, 300, 200);
   sliver.corners_px[3] = Eigen::Vector2d(340, 195);  // a 7 degree interior angle at corner 0
   TagFrame frame = frameOf({crossed, tiny, sliver, square(4, 400, 200)});

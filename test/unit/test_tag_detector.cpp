@@ -1,11 +1,11 @@
 // Tag detection against real photos with the library's expected detections, and against
 // rendered boards with exactly known corners.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <fstream>
-#include <regex>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <regex>
 
 #include "mvis/frontend/tag_checks.h"
 #include "mvis/frontend/tag_detector.h"
@@ -55,6 +55,7 @@ std::unique_ptr<TagDetector> makeDetector(const TagDetectorOptions& options) {
 // the refinement moves these corners is printed; its accuracy is tested on rendered boards.
 TEST(TagDetector, FindsTheExpectedTagsInRealPhotos) {
   TagDetectorOptions options;
+  options.decimate = 1.0;
   options.refine_edges = false;
   options.refine_corners = false;
   options.max_hamming = 2;
@@ -65,8 +66,8 @@ TEST(TagDetector, FindsTheExpectedTagsInRealPhotos) {
   double largest_refinement_px = 0.0;
   int expected_total = 0, found_total = 0;
   double worst_px = 0.0;
-  for (const std::string name : {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c",
-                                 "34139872896_defdb2f8d9_c"}) {
+  for (const std::string name :
+       {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c", "34139872896_defdb2f8d9_c"}) {
     const cv::Mat image = cv::imread(kRealTags + name + ".jpg", cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(image.empty()) << name;
     const auto expected = readExpected(kRealTags + name + ".txt");
@@ -99,8 +100,8 @@ TEST(TagDetector, FindsTheExpectedTagsInRealPhotos) {
         }
       }
       if (!best || best_distance > 3.0) {
-        ADD_FAILURE() << name << ": expected tag " << e.id << " at " << centre(e.corners).transpose()
-                      << " not found";
+        ADD_FAILURE() << name << ": expected tag " << e.id << " at "
+                      << centre(e.corners).transpose() << " not found";
         continue;
       }
       ++found_total;
@@ -139,8 +140,8 @@ RenderedScene renderScene(const SE3& T_cam_board, double noise_sigma, std::uint3
   RenderOptions options;
   options.noise_sigma = noise_sigma;
   options.seed = seed;
-  scene.image = renderer.value()->render(752, 480, pinholeToBoard(scene.intrinsics, T_cam_board),
-                                         options);
+  scene.image =
+      renderer.value()->render(752, 480, pinholeToBoard(scene.intrinsics, T_cam_board), options);
   return scene;
 }
 
@@ -196,9 +197,12 @@ TEST(TagDetector, CornersOnRenderedBoardsAreAccurate) {
   CornerErrors all;
   double sum_sq = 0.0;
   int views = 0;
-  for (const auto& [tx, ty, d] : std::vector<std::tuple<double, double, double>>{
-           {0.0, 0.0, 0.9}, {0.35, 0.0, 0.9}, {0.0, -0.45, 1.0}, {0.3, 0.3, 0.8},
-           {-0.45, 0.2, 0.95}}) {
+  for (const auto& [tx, ty, d] :
+       std::vector<std::tuple<double, double, double>>{{0.0, 0.0, 0.9},
+                                                       {0.35, 0.0, 0.9},
+                                                       {0.0, -0.45, 1.0},
+                                                       {0.3, 0.3, 0.8},
+                                                       {-0.45, 0.2, 0.95}}) {
     const RenderedScene scene = renderScene(viewOfBoard(tx, ty, d), 2.0, 100 + views++);
     const auto found = detector->detect(scene.image);
     ASSERT_TRUE(found.ok());
@@ -270,8 +274,7 @@ TEST(TagDetector, RefusesBadOptions) {
             "tag detector: unknown tag family 'tag99h1'");
   options = TagDetectorOptions();
   options.decimate = 0.5;
-  EXPECT_EQ(TagDetector::create(options).status().message(),
-            "tag detector: decimate must be >= 1");
+  EXPECT_EQ(TagDetector::create(options).status().message(), "tag detector: decimate must be >= 1");
 }
 
 }  // namespace

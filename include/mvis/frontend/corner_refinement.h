@@ -21,10 +21,10 @@
 namespace mvis {
 
 struct CornerRefinementOptions {
-  double edge_margin = 0.15;      // part of each side left out at either end
-  double min_contrast = 20.0;     // bright - dark below this: the sample is not used
-  double max_shift_px = 1.5;      // a corner that would move further is left as it was
-  int width_at_border = 8;        // cells across the detected square (family dependent)
+  double edge_margin = 0.15;   // part of each side left out at either end
+  double min_contrast = 20.0;  // bright - dark below this: the sample is not used
+  double max_shift_px = 1.5;   // a corner that would move further is left as it was
+  int width_at_border = 8;     // cells across the detected square (family dependent)
   // Smaller tags are left alone: the profile must fit inside one border cell on each side of
   // the edge; measured on rendered boards, cells of 3 px refine worse than libapriltag.
   double min_cell_px = 4.0;

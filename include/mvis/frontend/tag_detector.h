@@ -5,10 +5,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core/mat.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core/mat.hpp>
 
 #include "mvis/common/status.h"
 #include "mvis/frontend/tag_observation.h"
@@ -17,12 +16,13 @@ namespace mvis {
 
 struct TagDetectorOptions {
   std::string family = "tag36h11";  // any of supportedTagFamilies()
-  double decimate = 1.0;     // quad detection on an image this many times smaller (>= 1)
-  double blur_sigma = 0.0;   // Gaussian blur [px] before quad detection; < 0 sharpens
-  bool refine_edges = true;  // snap quad edges to strong gradients at full resolution
+  double decimate = 2.0;            // quad detection on an image this many times smaller (>= 1);
+                                    // edges and corners are refined at full resolution
+  double blur_sigma = 0.0;          // Gaussian blur [px] before quad detection; < 0 sharpens
+  bool refine_edges = true;         // snap quad edges to strong gradients at full resolution
   double decode_sharpening = 0.25;
-  int threads = 1;           // libapriltag worker threads
-  int max_hamming = 1;       // bits the decoder may correct (0..2); more invites wrong ids
+  int threads = 1;             // libapriltag worker threads
+  int max_hamming = 1;         // bits the decoder may correct (0..2); more invites wrong ids
   bool refine_corners = true;  // mvis's edge-based sub-pixel refinement (corner_refinement.h)
 
   std::string validate() const;  // empty when usable

@@ -1,11 +1,10 @@
 // What the front end hands the estimator: tag corners seen by one camera in one image.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "mvis/common/time.h"
 

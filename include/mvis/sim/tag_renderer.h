@@ -7,13 +7,12 @@
 // fits; pinholeToBoard() gives the undistorted pinhole case.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <vector>
-
-#include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
+#include <vector>
 
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"

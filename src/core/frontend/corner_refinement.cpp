@@ -1,12 +1,11 @@
 #include "mvis/frontend/corner_refinement.h"
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 
 namespace mvis {
 namespace {

@@ -91,7 +91,7 @@ void checkTagFrame(TagFrame* frame, const TagCheckOptions& options, TagRejection
   for (const auto& tag : kept) ++count[tag.tag_id];
   frame->tags.clear();
   for (auto& tag : kept) {
-    if (count[tag.tag_id] > 1) {
+    if (options.reject_duplicates && count[tag.tag_id] > 1) {
       ++rejections->duplicate;
     } else {
       frame->tags.push_back(std::move(tag));

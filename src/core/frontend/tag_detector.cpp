@@ -1,8 +1,5 @@
 #include "mvis/frontend/tag_detector.h"
 
-#include <algorithm>
-#include <map>
-
 #include <apriltag/apriltag.h>
 #include <apriltag/common/image_u8.h>
 #include <apriltag/tag16h5.h>
@@ -13,6 +10,9 @@
 #include <apriltag/tagCustom48h12.h>
 #include <apriltag/tagStandard41h12.h>
 #include <apriltag/tagStandard52h13.h>
+
+#include <algorithm>
+#include <map>
 
 #include "mvis/frontend/corner_refinement.h"
 
@@ -64,8 +64,8 @@ StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count) {
   handle.family = handle.functions.create();
   if (count < 0 || static_cast<std::uint32_t>(count) > handle.family->ncodes) {
     return Status::Error("tag family " + family + " has only " +
-                         std::to_string(handle.family->ncodes) + " tags, " +
-                         std::to_string(count) + " wanted");
+                         std::to_string(handle.family->ncodes) + " tags, " + std::to_string(count) +
+                         " wanted");
   }
   TagPatterns patterns;
   patterns.total_width = handle.family->total_width;
@@ -143,8 +143,8 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
     tag.tag_id = det->id;
     tag.hamming = det->hamming;
     for (int c = 0; c < 4; ++c) {
-      tag.corners_px[c] = Eigen::Vector2d(det->p[c][0], det->p[c][1]) +
-                          Eigen::Vector2d::Constant(kLibraryToMvisPx);
+      tag.corners_px[c] =
+          Eigen::Vector2d(det->p[c][0], det->p[c][1]) + Eigen::Vector2d::Constant(kLibraryToMvisPx);
     }
     if (options_.refine_corners) {
       CornerRefinementOptions refinement;

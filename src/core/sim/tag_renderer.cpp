@@ -22,7 +22,8 @@ double TagBoardRenderer::reflectance(double x, double y, double margin_tags) con
   const double size = grid_.tag_size;
   const double pitch = (1.0 + grid_.tag_spacing) * size;
   const double margin = margin_tags * pitch;
-  if (x < -margin || y < -margin || x > grid_.tag_cols * pitch - grid_.tag_spacing * size + margin ||
+  if (x < -margin || y < -margin ||
+      x > grid_.tag_cols * pitch - grid_.tag_spacing * size + margin ||
       y > grid_.tag_rows * pitch - grid_.tag_spacing * size + margin) {
     return -1.0;
   }
