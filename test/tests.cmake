@@ -31,3 +31,4 @@ add_rostest(test/ros/bad_config.test DEPENDENCIES mvis_ros mvis_node)
 
 mvis_core_test(test_tag_detector test/unit/test_tag_detector.cpp)
 mvis_core_test(test_tag_checks test/unit/test_tag_checks.cpp)
+mvis_core_test(test_tag_frontend test/unit/test_tag_frontend.cpp)
