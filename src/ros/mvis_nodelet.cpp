@@ -1,13 +1,16 @@
 #include "mvis/ros/mvis_nodelet.h"
 
+#include <cv_bridge/cv_bridge.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/image_encodings.h>
 
 #include <cmath>
 #include <cstdio>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "mvis/frontend/debug_image.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/ros/conversions.h"
 
@@ -58,6 +61,19 @@ void MvisNodelet::onInit() {
   calibration.header.stamp = ros::Time::now();
   calibration_pub_.publish(calibration);
 
+  TagFrontendOptions frontend_options;
+  frontend_options.detector.decimate = options_.tag_decimate;
+  frontend_options.detector.refine_corners = options_.tag_refine_corners;
+  frontend_options.detector.max_hamming = options_.tag_max_hamming;
+  frontend_options.detector.threads = options_.tag_threads;
+  frontend_options.checks.max_hamming = options_.tag_max_hamming;
+  auto frontend = TagFrontend::create(rig_, frontend_options);
+  if (!frontend.ok()) {
+    stayDown(frontend.status().message());
+    return;
+  }
+  frontend_ = std::move(frontend).value();
+
   subscribeSensors();
   diagnostics_timer_ =
       nh.createWallTimer(ros::WallDuration(options_.diagnostics_period_s),
@@ -83,8 +99,11 @@ void MvisNodelet::subscribeSensors() {
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
   image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);
+  private_image_transport_ =
+      std::make_unique<image_transport::ImageTransport>(getPrivateNodeHandle());
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     const auto& cam = rig_.cameras[c];
+    debug_image_pubs_.push_back(private_image_transport_->advertise(cam.name + "/debug_image", 1));
     if (options_.camera_input == "image") {
       traffic_.push_back({cam.name, cam.rostopic, 0.0, 0, 0, {}, 0, now});
       image_subscribers_.push_back(image_transport_->subscribe(
@@ -115,33 +134,75 @@ void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg)
 }
 
 void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
-  t.last_arrival = ros::WallTime::now();
-  if (msg->width == 0 || msg->height == 0 || msg->data.empty()) {
-    ++t.rejected;
-    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << rig_.cameras[camera].name << " (" << t.topic
-                                               << "): dropped an empty image");
+  // cv_bridge trusts width, height and step; a message whose data is shorter would be read
+  // past its end.
+  if (msg->height > 0 && msg->data.size() < static_cast<std::size_t>(msg->step) * msg->height) {
+    rejectCameraMessage(camera, "image data (" + std::to_string(msg->data.size()) +
+                                    " bytes) shorter than step x height");
     return;
   }
-  ++t.received;
+  cv_bridge::CvImageConstPtr image;
+  try {
+    image = cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::MONO8);
+  } catch (const std::exception& e) {  // cv_bridge::Exception or cv::Exception
+    rejectCameraMessage(camera, "cannot use encoding '" + msg->encoding + "': " + e.what());
+    return;
+  }
+  const auto result =
+      frontend_->processImage(camera, ros_conversions::toTimeNs(msg->header.stamp), image->image);
+  if (!result.ok()) {
+    rejectCameraMessage(camera, result.status().message());
+    return;
+  }
+  recordTags(camera, result.value());
+  auto& debug_pub = debug_image_pubs_[camera];
+  if (debug_pub.getNumSubscribers() > 0) {
+    debug_pub.publish(cv_bridge::CvImage(msg->header, sensor_msgs::image_encodings::BGR8,
+                                         drawTagFrame(image->image, result.value().frame))
+                          .toImageMsg());
+  }
 }
 
 void MvisNodelet::onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg) {
-  bool ok = true;
+  TagFrame frame;
+  frame.camera = camera;
+  frame.stamp_ns = ros_conversions::toTimeNs(msg->header.stamp);
   for (const auto& d : msg->detections) {
-    for (double v : d.corners) ok = ok && std::isfinite(v);
+    TagObservation tag;
+    tag.tag_id = d.id;
+    for (int c = 0; c < 4; ++c)
+      tag.corners_px[c] = Eigen::Vector2d(d.corners[2 * c], d.corners[2 * c + 1]);
+    frame.tags.push_back(tag);
   }
+  const auto result = frontend_->processDetections(std::move(frame));
+  if (!result.ok()) {
+    rejectCameraMessage(camera, result.status().message());
+    return;
+  }
+  recordTags(camera, result.value());
+}
+
+void MvisNodelet::rejectCameraMessage(std::size_t camera, const std::string& why) {
   std::lock_guard<std::mutex> lock(mutex_);
   SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
   t.last_arrival = ros::WallTime::now();
-  if (!ok) {
-    ++t.rejected;
-    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << rig_.cameras[camera].name << " (" << t.topic
-                                               << "): dropped detections with NaN corners");
-    return;
-  }
+  ++t.rejected;
+  NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << rig_.cameras[camera].name << " (" << t.topic
+                                             << "): dropped a message: " << why);
+}
+
+void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
+  t.last_arrival = ros::WallTime::now();
   ++t.received;
+  t.tags_in_last_frame = result.frame.tags.size();
+  t.tags_rejected += result.rejections.total();
+  if (result.rejections.total() > 0) {
+    NODELET_WARN_STREAM_THROTTLE(5.0,
+                                 "mvis: " << rig_.cameras[camera].name << " (" << t.topic
+                                          << "): dropped tags: " << result.rejections.describe());
+  }
 }
 
 void MvisNodelet::publishDiagnostics() {
@@ -182,6 +243,14 @@ void MvisNodelet::publishDiagnostics() {
     kv.key = "rejected";
     kv.value = std::to_string(t.rejected);
     status.values.push_back(kv);
+    if (&t - traffic_.data() >= static_cast<std::ptrdiff_t>(rig_.inertial.size())) {
+      kv.key = "tags_in_last_frame";
+      kv.value = std::to_string(t.tags_in_last_frame);
+      status.values.push_back(kv);
+      kv.key = "tags_rejected";
+      kv.value = std::to_string(t.tags_rejected);
+      status.values.push_back(kv);
+    }
     array.status.push_back(status);
   }
   diagnostics_pub_.publish(array);

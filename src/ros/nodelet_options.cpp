@@ -10,6 +10,10 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("camera_input", o.camera_input, o.camera_input);
   nh.param("diagnostics_period", o.diagnostics_period_s, o.diagnostics_period_s);
   nh.param("sensor_timeout", o.sensor_timeout_s, o.sensor_timeout_s);
+  nh.param("tag_decimate", o.tag_decimate, o.tag_decimate);
+  nh.param("tag_refine_corners", o.tag_refine_corners, o.tag_refine_corners);
+  nh.param("tag_max_hamming", o.tag_max_hamming, o.tag_max_hamming);
+  nh.param("tag_threads", o.tag_threads, o.tag_threads);
   return o;
 }
 
@@ -25,6 +29,11 @@ std::string NodeletOptions::validate() const {
   }
   if (!(diagnostics_period_s > 0.0)) return "parameter ~diagnostics_period must be positive";
   if (!(sensor_timeout_s > 0.0)) return "parameter ~sensor_timeout must be positive";
+  if (!(tag_decimate >= 1.0)) return "parameter ~tag_decimate must be >= 1";
+  if (tag_max_hamming < 0 || tag_max_hamming > 2) {
+    return "parameter ~tag_max_hamming must be 0, 1 or 2";
+  }
+  if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
   return "";
 }
 

@@ -2,7 +2,9 @@
 """rostest: the mvis nodelet loads with the default config (config/sim_vi_rig), advertises its
 topics, subscribes to every sensor, publishes the configured calibration, and counts good and
 bad input in its diagnostics."""
+import gzip
 import math
+import os
 import time
 import unittest
 
@@ -11,9 +13,10 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from mvis.msg import Calibration
-from sensor_msgs.msg import Imu
+from sensor_msgs.msg import Image, Imu
 
 TIMEOUT_S = 30.0
+BOARD = os.path.join(os.path.dirname(__file__), "..", "data", "board_cam1_752x480.pgm.gz")
 
 
 def wait_for(predicate, timeout_s=TIMEOUT_S):
@@ -23,6 +26,49 @@ def wait_for(predicate, timeout_s=TIMEOUT_S):
             return True
         time.sleep(0.1)
     return False
+
+
+def read_pgm(path):
+    """(width, height, bytes) of a gzipped binary PGM."""
+    data = gzip.open(path, "rb").read()
+    fields, offset = [], 0
+    while len(fields) < 4:  # magic, width, height, maxval
+        while data[offset:offset + 1].isspace():
+            offset += 1
+        end = offset
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[offset:end])
+        offset = end
+    assert fields[0] == b"P5" and fields[3] == b"255"
+    return int(fields[1]), int(fields[2]), data[offset + 1:]
+
+
+def mono8(width, height, pixels, encoding="mono8", step=None):
+    msg = Image()
+    msg.header.stamp = rospy.Time.now()
+    msg.header.frame_id = "cam1"
+    msg.width, msg.height, msg.encoding = width, height, encoding
+    msg.step = width if step is None else step
+    msg.data = pixels
+    return msg
+
+
+class DiagnosticsWatch:
+    """The latest key/values of one diagnostics status."""
+
+    def __init__(self, name):
+        self.values = {}
+        self.name = name
+        self.sub = rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_array)
+
+    def on_array(self, array):
+        for status in array.status:
+            if status.name == self.name:
+                self.values = {kv.key: int(kv.value) for kv in status.values}
+
+    def close(self):
+        self.sub.unregister()
 
 
 class NodeletLoads(unittest.TestCase):
@@ -93,6 +139,35 @@ class NodeletLoads(unittest.TestCase):
         ok = wait_for(lambda: counts.get("received") == good and counts.get("rejected") == bad)
         sub.unregister()
         self.assertTrue(ok, "diagnostics counts: %s" % counts)
+
+    def test_detects_tags_and_survives_corrupt_images(self):
+        width, height, pixels = read_pgm(BOARD)
+        pub = rospy.Publisher("/cam1/image_raw", Image, queue_size=10)
+        debug = []
+        debug_sub = rospy.Subscriber("/mvis/cam1/debug_image", Image, debug.append)
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0 and
+                                 debug_sub.get_num_connections() > 0))
+        corrupt = [
+            mono8(0, 0, b""),                                   # empty
+            mono8(width, height, pixels, encoding="nonsense"),  # unknown encoding
+            mono8(width, height, pixels[:100]),                 # data shorter than step x height
+            mono8(376, 240, pixels[:376 * 240]),                # not the camera's resolution
+        ]
+        for msg in corrupt + [mono8(width, height, pixels)]:
+            pub.publish(msg)
+            time.sleep(0.05)
+        watch = DiagnosticsWatch("mvis: cam1")
+        ok = wait_for(lambda: watch.values.get("received") == 1 and
+                      watch.values.get("rejected") == len(corrupt))
+        watch.close()
+        self.assertTrue(ok, "cam1 diagnostics: %s" % watch.values)
+        # The rendered board shows all 36 tags of config/sim_vi_rig/aprilgrid.yaml.
+        self.assertEqual(watch.values.get("tags_in_last_frame"), 36)
+        self.assertEqual(watch.values.get("tags_rejected"), 0)
+        self.assertTrue(wait_for(lambda: len(debug) > 0), "no debug image")
+        debug_sub.unregister()
+        self.assertEqual((debug[0].width, debug[0].height, debug[0].encoding),
+                         (width, height, "bgr8"))
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mvis/frontend/tag_frontend.h"
 #include "mvis/rig/rig.h"
 #include "mvis/ros/nodelet_options.h"
 
@@ -34,6 +35,8 @@ class MvisNodelet : public nodelet::Nodelet {
     ros::WallTime last_arrival;
     std::uint64_t received_at_last_report = 0;
     ros::WallTime last_report;
+    std::size_t tags_in_last_frame = 0;  // cameras only
+    std::uint64_t tags_rejected = 0;     // cameras only: single tags dropped by the checks
   };
 
   void onInit() override;
@@ -45,6 +48,10 @@ class MvisNodelet : public nodelet::Nodelet {
   void onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg);
   void onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg);
   void publishDiagnostics();
+  // Counts a camera message that could not be used and says why (throttled).
+  void rejectCameraMessage(std::size_t camera, const std::string& why);
+  // Counts the front end's result for a camera message and warns about dropped tags.
+  void recordTags(std::size_t camera, const TagFrontendResult& result);
 
   NodeletOptions options_;
   Rig rig_;
@@ -53,7 +60,10 @@ class MvisNodelet : public nodelet::Nodelet {
   std::mutex mutex_;                    // guards traffic_
   std::vector<SensorTraffic> traffic_;  // inertial sensors first, then cameras
 
+  std::unique_ptr<TagFrontend> frontend_;
   std::unique_ptr<image_transport::ImageTransport> image_transport_;
+  std::unique_ptr<image_transport::ImageTransport> private_image_transport_;
+  std::vector<image_transport::Publisher> debug_image_pubs_;  // per camera, lazy
   std::vector<ros::Subscriber> subscribers_;
   std::vector<image_transport::Subscriber> image_subscribers_;
   ros::Publisher odometry_pub_;

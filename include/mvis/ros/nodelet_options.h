@@ -14,6 +14,10 @@ struct NodeletOptions {
   std::string camera_input = "image";  // "image" or "tag_detections"
   double diagnostics_period_s = 1.0;   // [s] between diagnostics messages
   double sensor_timeout_s = 1.0;       // [s] silence after which a sensor counts as stopped
+  double tag_decimate = 2.0;           // quad search at 1/decimate resolution (>= 1)
+  bool tag_refine_corners = true;      // mvis's edge-based sub-pixel corner refinement
+  int tag_max_hamming = 1;             // bits the tag decoder may correct (0..2)
+  int tag_threads = 1;                 // libapriltag threads per camera
 
   // Empty when the options are usable, else what is wrong, naming the parameter.
   std::string validate() const;
