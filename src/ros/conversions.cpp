@@ -103,6 +103,21 @@ geometry_msgs::Transform toTransformMsg(const SE3& T) {
   return m;
 }
 
+TagFrame toTagFrame(const mvis::TagDetectionArray& msg, std::size_t camera) {
+  TagFrame frame;
+  frame.camera = camera;
+  frame.stamp_ns = toTimeNs(msg.header.stamp);
+  for (const auto& d : msg.detections) {
+    TagObservation tag;
+    tag.tag_id = d.id;
+    for (int c = 0; c < 4; ++c) {
+      tag.corners_px[c] = Eigen::Vector2d(d.corners[2 * c], d.corners[2 * c + 1]);
+    }
+    frame.tags.push_back(tag);
+  }
+  return frame;
+}
+
 mvis::Calibration toCalibrationMsg(const Rig& rig, const std::string& frame_prefix) {
   mvis::Calibration msg;
   msg.header.frame_id = frame_prefix + rig.baseImu().name;

@@ -164,17 +164,7 @@ void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& 
 }
 
 void MvisNodelet::onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg) {
-  TagFrame frame;
-  frame.camera = camera;
-  frame.stamp_ns = ros_conversions::toTimeNs(msg->header.stamp);
-  for (const auto& d : msg->detections) {
-    TagObservation tag;
-    tag.tag_id = d.id;
-    for (int c = 0; c < 4; ++c)
-      tag.corners_px[c] = Eigen::Vector2d(d.corners[2 * c], d.corners[2 * c + 1]);
-    frame.tags.push_back(tag);
-  }
-  const auto result = frontend_->processDetections(std::move(frame));
+  const auto result = frontend_->processDetections(ros_conversions::toTagFrame(*msg, camera));
   if (!result.ok()) {
     rejectCameraMessage(camera, result.status().message());
     return;
