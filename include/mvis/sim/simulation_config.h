@@ -1,0 +1,37 @@
+// The simulation yaml: what to simulate on top of a rig description (the truth). Every key is
+// documented in config/sim_vi_rig/sim.yaml.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mvis/common/status.h"
+#include "mvis/common/time.h"
+#include "mvis/sim/rig_simulator.h"
+
+namespace mvis {
+
+enum class CameraOutput { kImages, kDetections };
+
+struct SimulationConfig {
+  double duration_s = 60.0;
+  std::uint64_t seed = 1;
+  TimeNs start_ns = 1700000000LL * kNsPerSecond;  // base-clock time of the first sample
+  MotionOptions motion;
+  std::vector<double> camera_rate_hz;  // one per camera of the rig
+  CameraOutput camera_output = CameraOutput::kImages;
+  double pixel_noise_px = 0.5;     // detections: Gaussian noise on true corners [px]
+  double image_noise_sigma = 2.0;  // images: Gaussian intensity noise [0..255]
+  int supersample = 3;             // images: anti-aliasing samples per pixel and axis
+  bool imu_noise = true;           // white noise and bias random walks on inertial data
+  PerturbationSizes perturbation;  // of the written initial guess
+};
+
+// Parses the simulation yaml; `num_cameras` is the rig's, to check camera_rate_hz. Errors name
+// the file and key: "FILE: KEY: problem".
+StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
+                                                 const std::string& path, std::size_t num_cameras);
+StatusOr<SimulationConfig> loadSimulationConfig(const std::string& path, std::size_t num_cameras);
+
+}  // namespace mvis
