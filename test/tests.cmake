@@ -37,3 +37,8 @@ mvis_core_test(test_camera_model test/unit/test_camera_model.cpp)
 mvis_core_test(test_sim_inertial test/unit/test_sim_inertial.cpp)
 mvis_core_test(test_sim_rig test/unit/test_sim_rig.cpp)
 mvis_core_test(test_simulation_config test/unit/test_simulation_config.cpp)
+
+# ROS-side gtests (bags): link mvis_ros, no include guard.
+catkin_add_gtest(test_simulation_bag test/ros/test_simulation_bag.cpp)
+target_link_libraries(test_simulation_bag mvis_ros gtest_main)
+target_compile_definitions(test_simulation_bag PRIVATE MVIS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

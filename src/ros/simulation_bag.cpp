@@ -1,0 +1,114 @@
+#include "mvis/ros/simulation_bag.h"
+
+#include <mvis/TagDetectionArray.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include "mvis/rig/rig_io.h"
+#include "mvis/ros/conversions.h"
+#include "mvis/sim/simulation.h"
+
+namespace mvis {
+namespace {
+
+class BagSink : public SimulationSink {
+ public:
+  BagSink(rosbag::Bag* bag, const Rig& rig, SimulationBagSummary* summary)
+      : bag_(bag), rig_(rig), summary_(summary) {}
+
+  void imu(std::size_t sensor, const ImuSample& sample) override {
+    sensor_msgs::Imu msg;
+    msg.header.stamp = ros_conversions::toRosTime(sample.stamp_ns);
+    msg.header.frame_id = rig_.inertial[sensor].name;
+    msg.orientation_covariance[0] = -1.0;  // REP-145: no orientation estimate
+    msg.angular_velocity.x = sample.gyro.x();
+    msg.angular_velocity.y = sample.gyro.y();
+    msg.angular_velocity.z = sample.gyro.z();
+    msg.linear_acceleration.x = sample.accel.x();
+    msg.linear_acceleration.y = sample.accel.y();
+    msg.linear_acceleration.z = sample.accel.z();
+    bag_->write(rig_.inertial[sensor].rostopic, msg.header.stamp, msg);
+    ++summary_->imu_messages;
+  }
+
+  void tagFrame(const TagFrame& frame) override {
+    mvis::TagDetectionArray msg;
+    msg.header.stamp = ros_conversions::toRosTime(frame.stamp_ns);
+    msg.header.frame_id = rig_.cameras[frame.camera].name;
+    for (const auto& tag : frame.tags) {
+      mvis::TagDetection d;
+      d.id = tag.tag_id;
+      for (int c = 0; c < 4; ++c) {
+        d.corners[2 * c] = tag.corners_px[c].x();
+        d.corners[2 * c + 1] = tag.corners_px[c].y();
+      }
+      msg.detections.push_back(d);
+    }
+    bag_->write(rig_.cameras[frame.camera].rostopic + "/tag_detections", msg.header.stamp, msg);
+    ++summary_->camera_messages;
+    summary_->tags += frame.tags.size();
+  }
+
+  void image(std::size_t camera, TimeNs stamp_ns, const cv::Mat& gray) override {
+    sensor_msgs::Image msg;
+    msg.header.stamp = ros_conversions::toRosTime(stamp_ns);
+    msg.header.frame_id = rig_.cameras[camera].name;
+    msg.width = gray.cols;
+    msg.height = gray.rows;
+    msg.encoding = sensor_msgs::image_encodings::MONO8;
+    msg.step = gray.cols;
+    msg.data.resize(static_cast<std::size_t>(gray.cols) * gray.rows);
+    for (int r = 0; r < gray.rows; ++r) {
+      std::copy(gray.ptr<std::uint8_t>(r), gray.ptr<std::uint8_t>(r) + gray.cols,
+                msg.data.begin() + static_cast<std::size_t>(r) * gray.cols);
+    }
+    bag_->write(rig_.cameras[camera].rostopic, msg.header.stamp, msg);
+    ++summary_->camera_messages;
+  }
+
+ private:
+  rosbag::Bag* bag_;
+  const Rig& rig_;
+  SimulationBagSummary* summary_;
+};
+
+}  // namespace
+
+StatusOr<SimulationBagSummary> writeSimulationBag(const Rig& truth, const SimulationConfig& config,
+                                                  const std::string& output_dir) {
+  namespace fs = std::filesystem;
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path out(output_dir);
+  std::error_code error;
+  fs::create_directories(out, error);
+  if (error) return Status::Error(output_dir + ": cannot create: " + error.message());
+
+  Status status = saveRig(truth, (out / "truth").string());
+  if (!status.ok()) return status;
+  status = saveRig(perturbRig(truth, config.perturbation, config.seed), (out / "config").string());
+  if (!status.ok()) return status;
+
+  SimulationBagSummary summary;
+  StatusOr<std::vector<StampedPose>> trajectory = Status::Error("not run");
+  try {
+    if (!ros::Time::isValid()) ros::Time::init();
+    rosbag::Bag bag((out / "sim.bag").string(), rosbag::bagmode::Write);
+    BagSink sink(&bag, truth, &summary);
+    trajectory = runSimulation(truth, config, &sink);
+    bag.close();
+  } catch (const std::exception& e) {  // rosbag::BagException and friends
+    return Status::Error((out / "sim.bag").string() + ": " + e.what());
+  }
+  if (!trajectory.ok()) return trajectory.status();
+  status = writeTumTrajectory((out / "truth" / "trajectory.tum").string(), trajectory.value());
+  if (!status.ok()) return status;
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace mvis
