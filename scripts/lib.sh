@@ -41,10 +41,11 @@ mvis_ros_env() {
   fi
 }
 
-# Configures (once) and builds; extra arguments are make targets (default: all).
+# Configures (once, or again after a configure that failed) and builds; extra arguments are make
+# targets (default: all).
 mvis_build() {
   export PATH="/usr/bin:$PATH"
-  if [ ! -f "$MVIS_BUILD_DIR/CMakeCache.txt" ]; then
+  if [ ! -f "$MVIS_BUILD_DIR/CMakeCache.txt" ] || [ ! -f "$MVIS_BUILD_DIR/Makefile" ]; then
     cmake -S "$MVIS_ROOT" -B "$MVIS_BUILD_DIR" -DCMAKE_BUILD_TYPE=Release \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 || return 1
   fi

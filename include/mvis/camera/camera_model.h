@@ -77,8 +77,10 @@ Eigen::Matrix<T, 2, 1> projectPoint(DistortionModel model, const Eigen::Matrix<T
 bool projectToPixel(const Camera& camera, const Eigen::Vector3d& p_C, Eigen::Vector2d* uv);
 
 // Normalized point m (p_C = z * [m; 1]) seen at pixel uv: the distortion inverted by Gauss-
-// Newton. False if it does not converge to 1e-10 in normalized units (far outside the
-// distortion model's valid field of view).
-bool unprojectPixel(const Camera& camera, const Eigen::Vector2d& uv, Eigen::Vector2d* m);
+// Newton, starting from `initial` if given (a neighbouring pixel's answer saves iterations).
+// False if it does not converge to 1e-10 in normalized units (far outside the distortion
+// model's valid field of view).
+bool unprojectPixel(const Camera& camera, const Eigen::Vector2d& uv, Eigen::Vector2d* m,
+                    const Eigen::Vector2d* initial = nullptr);
 
 }  // namespace mvis

@@ -25,6 +25,7 @@ struct SimulationConfig {
   double image_noise_sigma = 2.0;  // images: Gaussian intensity noise [0..255]
   int supersample = 3;             // images: anti-aliasing samples per pixel and axis
   bool imu_noise = true;           // white noise and bias random walks on inertial data
+  int threads = 2;                 // images: rendering threads (same images for any number)
   PerturbationSizes perturbation;  // of the written initial guess
 };
 

@@ -32,6 +32,26 @@ struct RenderOptions {
   std::uint32_t seed = 1;     // for the sample jitter and the noise
 };
 
+// The viewing rays of one camera's anti-aliasing samples, computed once (inverting the
+// distortion per sample is the expensive part of rendering): for every pixel, supersample^2
+// stratified jittered sample positions (a fixed pattern from `seed`) and their normalized rays
+// m (p_C = z [m; 1]); NaN where the distortion cannot be inverted.
+class CameraRays {
+ public:
+  CameraRays(const Camera& camera, int supersample, std::uint32_t seed);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int samplesPerPixel() const { return samples_; }
+  // Rays of pixel (row, col): samplesPerPixel() consecutive (x, y) pairs.
+  const float* pixel(int row, int col) const {
+    return rays_.data() + 2 * static_cast<std::size_t>(samples_) * (row * width_ + col);
+  }
+
+ private:
+  int width_ = 0, height_ = 0, samples_ = 0;
+  std::vector<float> rays_;
+};
+
 class TagBoardRenderer {
  public:
   // Fails if the grid's family is unknown.
@@ -39,6 +59,12 @@ class TagBoardRenderer {
 
   cv::Mat render(int width, int height, const PixelToBoard& pixel_to_board,
                  const RenderOptions& options) const;
+
+  // The same with precomputed rays, for camera pose T_G_C over the board (world = board frame);
+  // options.supersample is the rays' own. Rows are shared between `threads` threads; the image
+  // is the same for any number of threads.
+  cv::Mat render(const CameraRays& rays, const SE3& T_G_C, const RenderOptions& options,
+                 int threads = 1) const;
 
   // Board intensity in [0, 1] (0 black, 1 white) at board point (x, y) [m]; -1 off the board.
   double reflectance(double x, double y, double margin_tags) const;

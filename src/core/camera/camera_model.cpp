@@ -11,10 +11,12 @@ bool projectToPixel(const Camera& camera, const Eigen::Vector3d& p_C, Eigen::Vec
   return true;
 }
 
-bool unprojectPixel(const Camera& camera, const Eigen::Vector2d& uv, Eigen::Vector2d* m) {
+bool unprojectPixel(const Camera& camera, const Eigen::Vector2d& uv, Eigen::Vector2d* m,
+                    const Eigen::Vector2d* initial) {
   const Eigen::Vector4d& k = camera.intrinsics;
   const Eigen::Vector2d target((uv.x() - k[2]) / k[0], (uv.y() - k[3]) / k[1]);
-  Eigen::Vector2d x = target;  // the undistorted point starts at the distorted one
+  // Without a hint the undistorted point starts at the distorted one.
+  Eigen::Vector2d x = initial ? *initial : target;
   constexpr double kStep = 1e-7;
   for (int iteration = 0; iteration < 50; ++iteration) {
     const Eigen::Vector2d f = distort<double>(camera.distortion_model, x, camera.distortion_coeffs);

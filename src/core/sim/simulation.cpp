@@ -44,7 +44,8 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
       }
       continue;
     }
-    const Camera& cam = truth.cameras[c];
+    // The sample pattern is fixed per camera; the noise changes per frame.
+    const CameraRays rays(truth.cameras[c], config.supersample, static_cast<std::uint32_t>(seed));
     const TimeNs period = fromSeconds(1.0 / config.camera_rate_hz[c]);
     RenderOptions render;
     render.supersample = config.supersample;
@@ -53,9 +54,7 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
     for (TimeNs stamp = t0; stamp <= end; stamp += period, ++frame_index) {
       render.seed = static_cast<std::uint32_t>(seed * 100000 + frame_index);
       const SE3 T_G_C = cameraPose(truth, c, base, t0, stamp);
-      sink->image(c, stamp,
-                  renderer->render(cam.resolution[0], cam.resolution[1], cameraToBoard(cam, T_G_C),
-                                   render));
+      sink->image(c, stamp, renderer->render(rays, T_G_C, render, config.threads));
     }
   }
   return truth_trajectory;

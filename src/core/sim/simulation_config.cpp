@@ -51,7 +51,8 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     const EntryReader entry(rig_io::parseYamlText(yaml_text, path), path, "");
     entry.rejectUnknownKeys({"duration_s", "seed", "start_time_s", "motion", "height_m",
                              "amplitude", "camera_rate_hz", "camera_output", "pixel_noise_px",
-                             "image_noise_sigma", "supersample", "imu_noise", "perturbation"});
+                             "image_noise_sigma", "supersample", "threads", "imu_noise",
+                             "perturbation"});
     SimulationConfig c;
     if (entry.has("duration_s")) c.duration_s = entry.positiveNumber("duration_s");
     if (entry.has("seed")) {
@@ -92,6 +93,7 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     c.pixel_noise_px = nonNegative(entry, "pixel_noise_px", c.pixel_noise_px);
     c.image_noise_sigma = nonNegative(entry, "image_noise_sigma", c.image_noise_sigma);
     if (entry.has("supersample")) c.supersample = entry.positiveInteger("supersample");
+    if (entry.has("threads")) c.threads = entry.positiveInteger("threads");
     if (entry.has("imu_noise")) {
       const std::string flag = entry.text("imu_noise");
       if (flag != "true" && flag != "false") entry.fail("imu_noise", "expected true or false");

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <thread>
 
+#include "mvis/camera/camera_model.h"
 #include "mvis/frontend/tag_detector.h"
 
 namespace mvis {
@@ -77,6 +80,89 @@ cv::Mat TagBoardRenderer::render(int width, int height, const PixelToBoard& pixe
       row[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
     }
   }
+  return image;
+}
+
+CameraRays::CameraRays(const Camera& camera, int supersample, std::uint32_t seed)
+    : width_(camera.resolution[0]),
+      height_(camera.resolution[1]),
+      samples_(std::max(1, supersample) * std::max(1, supersample)) {
+  const int n = std::max(1, supersample);
+  rays_.resize(2 * static_cast<std::size_t>(samples_) * width_ * height_);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(0.0, 1.0);
+  Eigen::Vector2d previous(0.0, 0.0);
+  bool have_previous = false;
+  float* out = rays_.data();
+  for (int r = 0; r < height_; ++r) {
+    for (int c = 0; c < width_; ++c) {
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+          const Eigen::Vector2d pixel(c - 0.5 + (j + jitter(rng)) / n,
+                                      r - 0.5 + (i + jitter(rng)) / n);
+          Eigen::Vector2d m;
+          if (unprojectPixel(camera, pixel, &m, have_previous ? &previous : nullptr)) {
+            previous = m;
+            have_previous = true;
+            *out++ = static_cast<float>(m.x());
+            *out++ = static_cast<float>(m.y());
+          } else {
+            have_previous = false;
+            *out++ = std::numeric_limits<float>::quiet_NaN();
+            *out++ = std::numeric_limits<float>::quiet_NaN();
+          }
+        }
+      }
+    }
+  }
+}
+
+cv::Mat TagBoardRenderer::render(const CameraRays& rays, const SE3& T_G_C,
+                                 const RenderOptions& options, int threads) const {
+  cv::Mat image(rays.height(), rays.width(), CV_8UC1);
+  const Eigen::Matrix3d R = T_G_C.rotation();
+  const Eigen::Vector3d o = T_G_C.p;
+  const int samples = rays.samplesPerPixel();
+  const auto renderRows = [&](int first, int last) {
+    std::normal_distribution<double> noise(0.0, options.noise_sigma);
+    for (int r = first; r < last; ++r) {
+      // Noise seeded per row: the same image whatever the number of threads.
+      std::mt19937 rng(options.seed * 7919u + static_cast<std::uint32_t>(r));
+      auto* row = image.ptr<std::uint8_t>(r);
+      for (int c = 0; c < rays.width(); ++c) {
+        const float* m = rays.pixel(r, c);
+        double sum = 0.0;
+        for (int k = 0; k < samples; ++k) {
+          double value = options.background;
+          const double mx = m[2 * k], my = m[2 * k + 1];
+          if (!std::isnan(mx)) {
+            // Ray in the world; the board is the plane z = 0.
+            const double dz = R(2, 0) * mx + R(2, 1) * my + R(2, 2);
+            const double t = std::abs(dz) > 1e-12 ? -o.z() / dz : -1.0;
+            if (t > 0.0) {
+              const double x = o.x() + t * (R(0, 0) * mx + R(0, 1) * my + R(0, 2));
+              const double y = o.y() + t * (R(1, 0) * mx + R(1, 1) * my + R(1, 2));
+              const double reflect = reflectance(x, y, options.margin_tags);
+              if (reflect >= 0.0) value = options.black + reflect * (options.white - options.black);
+            }
+          }
+          sum += value;
+        }
+        double value = sum / samples;
+        if (options.noise_sigma > 0.0) value += noise(rng);
+        row[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+      }
+    }
+  };
+  const int parts = std::max(1, std::min(threads, rays.height()));
+  std::vector<std::thread> workers;
+  const int rows_per_part = (rays.height() + parts - 1) / parts;
+  for (int p = 1; p < parts; ++p) {
+    workers.emplace_back(renderRows, std::min(rays.height(), p * rows_per_part),
+                         std::min(rays.height(), (p + 1) * rows_per_part));
+  }
+  renderRows(0, std::min(rays.height(), rows_per_part));
+  for (auto& worker : workers) worker.join();
   return image;
 }
 
