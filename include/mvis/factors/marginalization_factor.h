@@ -1,0 +1,85 @@
+// Marginalization prior: what the states leaving the window knew, as one Ceres cost.
+//
+// The residual blocks touching the dropped parameter blocks x_m are linearized at the current
+// estimate x0 in the tangent spaces of their blocks (robust losses by their first-order weight
+// sqrt(rho'(s))): r(x0 + dx) ~ r + J dx. With H = J^T J and b = J^T r split into dropped (m) and
+// kept (k) parts, the Schur complement
+//   H* = H_kk - H_km H_mm^-1 H_mk,   b* = b_k - H_km H_mm^-1 b_m
+// is the information the dropped blocks leave on the kept ones. Both H_mm^-1 and the
+// factorization of H* use the eigen-decomposition of the Jacobi-scaled matrix
+// D^-1/2 A D^-1/2 (D = diag(A)), since the blocks' information spans many orders of magnitude;
+// scaled eigenvalues l <= eps count as zero. With D^-1/2 H* D^-1/2 = V diag(l) V^T, the prior
+// is the cost ||r0 + J0 dx_k||^2 with
+//   J0 = diag(sqrt(l)) V^T D^1/2,   r0 = diag(1 / sqrt(l)) V^T D^-1/2 b*,
+//   dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean difference otherwise).
+// Its Jacobian is J0 times each block's MinusJacobian, first-estimate by construction: it stays
+// at the linearization point x0.
+#pragma once
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+
+#include <Eigen/Core>
+#include <map>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include "mvis/common/status.h"
+
+namespace mvis {
+
+class MarginalizationFactor;
+
+// Collects the residual blocks around the dropped states, then makes the prior.
+class Marginalizer {
+ public:
+  // `manifold` of a block (nullptr: Euclidean); not owned, must outlive the prior.
+  void setManifold(const double* block, const ceres::Manifold* manifold);
+  // A residual block touching at least one dropped block. Neither pointer is owned; both are
+  // only used inside marginalize().
+  void addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
+                   std::vector<double*> blocks);
+  // Linearizes everything added and makes the prior on every block that is not in `drop`.
+  // Fails if evaluating a residual fails or nothing is kept.
+  StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(const std::set<const double*>& drop,
+                                                               double eps = 1e-8) const;
+
+ private:
+  struct Residual {
+    const ceres::CostFunction* cost;
+    const ceres::LossFunction* loss;
+    std::vector<double*> blocks;
+  };
+  std::vector<Residual> residuals_;
+  std::map<const double*, const ceres::Manifold*> manifolds_;
+};
+
+class MarginalizationFactor final : public ceres::CostFunction {
+ public:
+  struct Block {
+    double* address = nullptr;                  // the kept parameter block
+    const ceres::Manifold* manifold = nullptr;  // nullptr: Euclidean
+    int ambient = 0, tangent = 0;
+    std::vector<double> x0;  // linearization point
+  };
+
+  MarginalizationFactor(std::vector<Block> blocks, Eigen::MatrixXd J0, Eigen::VectorXd r0);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  // Parameter blocks in the order Ceres must be given them.
+  std::vector<double*> parameterBlocks() const;
+  const std::vector<Block>& blocks() const { return blocks_; }
+  const Eigen::MatrixXd& J0() const { return J0_; }
+  const Eigen::VectorXd& r0() const { return r0_; }
+
+ private:
+  std::vector<Block> blocks_;
+  Eigen::MatrixXd J0_;
+  Eigen::VectorXd r0_;
+};
+
+}  // namespace mvis

@@ -1,0 +1,34 @@
+#include "mvis/estimator/state_blocks.h"
+
+namespace mvis {
+
+bool PoseManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  const Eigen::Map<const Eigen::Vector3d> dtheta(delta), dp(delta + 3);
+  Eigen::Map<Eigen::Quaterniond> q(x_plus_delta);
+  q = (poseRotation(x) * lie::expQuat(dtheta)).normalized();
+  Eigen::Map<Eigen::Vector3d>(x_plus_delta + 4) = posePosition(x) + dp;
+  return true;
+}
+
+bool PoseManifold::PlusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J.topRows<6>().setIdentity();
+  return true;
+}
+
+bool PoseManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  Eigen::Map<Eigen::Vector3d>{y_minus_x} =
+      lie::logQuat(poseRotation(x).conjugate() * poseRotation(y));
+  Eigen::Map<Eigen::Vector3d>(y_minus_x + 3) = posePosition(y) - posePosition(x);
+  return true;
+}
+
+bool PoseManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J.leftCols<6>().setIdentity();
+  return true;
+}
+
+}  // namespace mvis

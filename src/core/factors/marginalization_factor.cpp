@@ -1,0 +1,213 @@
+#include "mvis/factors/marginalization_factor.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+namespace mvis {
+namespace {
+
+int tangentSize(const ceres::Manifold* manifold, int ambient) {
+  return manifold != nullptr ? manifold->TangentSize() : ambient;
+}
+
+// Eigen-decomposition of a symmetric positive semi-definite A after Jacobi scaling,
+// A = D^1/2 (V diag(l) V^T) D^1/2 with D = diag(A): the information of the blocks spans many
+// orders of magnitude (biases ~1e10, gravity ~1), and scaling makes the threshold on l
+// relative to each direction's own scale. Eigenvalues l <= eps count as zero.
+struct ScaledEigen {
+  Eigen::VectorXd sqrt_d;  // D^1/2
+  Eigen::VectorXd l;
+  Eigen::MatrixXd V;
+  std::vector<int> kept;  // indices of l > eps
+};
+
+ScaledEigen scaledEigen(const Eigen::MatrixXd& A, double eps) {
+  ScaledEigen out;
+  out.sqrt_d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const Eigen::VectorXd inv = out.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::MatrixXd B = inv.asDiagonal() * A * inv.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (B + B.transpose()));
+  out.l = es.eigenvalues();
+  out.V = es.eigenvectors();
+  for (int i = 0; i < out.l.size(); ++i) {
+    if (out.l[i] > eps) out.kept.push_back(i);
+  }
+  return out;
+}
+
+// Pseudo-inverse of a symmetric positive semi-definite matrix.
+Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& A, double eps) {
+  const ScaledEigen e = scaledEigen(A, eps);
+  const Eigen::VectorXd inv_d = e.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  Eigen::MatrixXd inner = Eigen::MatrixXd::Zero(A.rows(), A.cols());
+  for (int i : e.kept) inner += e.V.col(i) * e.V.col(i).transpose() / e.l[i];
+  return inv_d.asDiagonal() * inner * inv_d.asDiagonal();
+}
+
+}  // namespace
+
+void Marginalizer::setManifold(const double* block, const ceres::Manifold* manifold) {
+  manifolds_[block] = manifold;
+}
+
+void Marginalizer::addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
+                               std::vector<double*> blocks) {
+  residuals_.push_back({cost, loss, std::move(blocks)});
+}
+
+StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
+    const std::set<const double*>& drop, double eps) const {
+  // Every block once: dropped ones first, then kept ones, in order of first appearance.
+  struct Entry {
+    double* address;
+    int ambient, tangent, offset;
+    const ceres::Manifold* manifold;
+  };
+  std::vector<Entry> entries;
+  std::map<const double*, int> index;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const auto& residual : residuals_) {
+      const auto& sizes = residual.cost->parameter_block_sizes();
+      for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
+        double* address = residual.blocks[b];
+        const bool dropped = drop.count(address) > 0;
+        if ((pass == 0) != dropped || index.count(address)) continue;
+        const auto m = manifolds_.find(address);
+        const ceres::Manifold* manifold = m == manifolds_.end() ? nullptr : m->second;
+        index[address] = static_cast<int>(entries.size());
+        entries.push_back({address, sizes[b], tangentSize(manifold, sizes[b]), 0, manifold});
+      }
+    }
+  }
+  int n = 0, m = 0;
+  for (auto& e : entries) {
+    e.offset = n;
+    n += e.tangent;
+    if (drop.count(e.address)) m = n;
+  }
+  if (m == n) return Status::Error("marginalization keeps no parameter block");
+
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  for (const auto& residual : residuals_) {
+    const int rows = residual.cost->num_residuals();
+    const auto& sizes = residual.cost->parameter_block_sizes();
+    Eigen::VectorXd r(rows);
+    std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J;
+    std::vector<double*> jac_ptrs;
+    for (int size : sizes) J.emplace_back(rows, size);
+    for (auto& j : J) jac_ptrs.push_back(j.data());
+    std::vector<const double*> params(residual.blocks.begin(), residual.blocks.end());
+    if (!residual.cost->Evaluate(params.data(), r.data(), jac_ptrs.data())) {
+      return Status::Error("a residual block failed to evaluate during marginalization");
+    }
+    double weight = 1.0;
+    if (residual.loss != nullptr) {
+      double rho[3];
+      residual.loss->Evaluate(r.squaredNorm(), rho);
+      weight = std::sqrt(std::max(rho[1], 0.0));
+    }
+    // Tangent Jacobians of this residual, placed at their blocks' columns.
+    Eigen::MatrixXd Jt = Eigen::MatrixXd::Zero(rows, n);
+    for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
+      const Entry& e = entries[index.at(residual.blocks[b])];
+      if (e.manifold != nullptr) {
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(e.ambient,
+                                                                                    e.tangent);
+        e.manifold->PlusJacobian(e.address, plus.data());
+        Jt.middleCols(e.offset, e.tangent) += J[b] * plus;
+      } else {
+        Jt.middleCols(e.offset, e.tangent) += J[b];
+      }
+    }
+    Jt *= weight;
+    r *= weight;
+    H.noalias() += Jt.transpose() * Jt;
+    g.noalias() += Jt.transpose() * r;
+  }
+
+  const int k = n - m;
+  const Eigen::MatrixXd Hmm_inv = pseudoInverse(H.topLeftCorner(m, m), eps);
+  const Eigen::MatrixXd Hkm = H.bottomLeftCorner(k, m);
+  const Eigen::MatrixXd Hs = H.bottomRightCorner(k, k) - Hkm * Hmm_inv * Hkm.transpose();
+  const Eigen::VectorXd gs = g.tail(k) - Hkm * Hmm_inv * g.head(m);
+
+  // Hs = J0^T J0 with J0 = diag(sqrt(l)) V^T D^1/2; r0 solves J0^T r0 = gs.
+  const ScaledEigen es = scaledEigen(Hs, eps);
+  if (es.kept.empty()) return Status::Error("marginalization left no information");
+  const Eigen::VectorXd inv_d = es.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::VectorXd gs_scaled = inv_d.asDiagonal() * gs;
+  Eigen::MatrixXd J0(es.kept.size(), k);
+  Eigen::VectorXd r0(es.kept.size());
+  for (std::size_t i = 0; i < es.kept.size(); ++i) {
+    const double s = std::sqrt(es.l[es.kept[i]]);
+    const Eigen::VectorXd v = es.V.col(es.kept[i]);
+    J0.row(i) = s * v.transpose() * es.sqrt_d.asDiagonal();
+    r0[i] = v.dot(gs_scaled) / s;
+  }
+
+  std::vector<MarginalizationFactor::Block> kept;
+  for (const auto& e : entries) {
+    if (drop.count(e.address)) continue;
+    MarginalizationFactor::Block block;
+    block.address = e.address;
+    block.manifold = e.manifold;
+    block.ambient = e.ambient;
+    block.tangent = e.tangent;
+    block.x0.assign(e.address, e.address + e.ambient);
+    kept.push_back(std::move(block));
+  }
+  return std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+}
+
+MarginalizationFactor::MarginalizationFactor(std::vector<Block> blocks, Eigen::MatrixXd J0,
+                                             Eigen::VectorXd r0)
+    : blocks_(std::move(blocks)), J0_(std::move(J0)), r0_(std::move(r0)) {
+  set_num_residuals(static_cast<int>(r0_.size()));
+  for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(b.ambient);
+}
+
+std::vector<double*> MarginalizationFactor::parameterBlocks() const {
+  std::vector<double*> out;
+  for (const auto& b : blocks_) out.push_back(b.address);
+  return out;
+}
+
+bool MarginalizationFactor::Evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  int total = 0;
+  for (const auto& b : blocks_) total += b.tangent;
+  Eigen::VectorXd dx(total);
+  int offset = 0;
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    const Block& b = blocks_[i];
+    if (b.manifold != nullptr) {
+      if (!b.manifold->Minus(parameters[i], b.x0.data(), dx.data() + offset)) return false;
+    } else {
+      for (int j = 0; j < b.ambient; ++j) dx[offset + j] = parameters[i][j] - b.x0[j];
+    }
+    offset += b.tangent;
+  }
+  Eigen::Map<Eigen::VectorXd>(residuals, r0_.size()) = r0_ + J0_ * dx;
+  if (jacobians == nullptr) return true;
+  offset = 0;
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    const Block& b = blocks_[i];
+    if (jacobians[i] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> out(
+          jacobians[i], r0_.size(), b.ambient);
+      if (b.manifold != nullptr) {
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> minus(b.tangent,
+                                                                                     b.ambient);
+        b.manifold->MinusJacobian(parameters[i], minus.data());
+        out = J0_.middleCols(offset, b.tangent) * minus;
+      } else {
+        out = J0_.middleCols(offset, b.tangent);
+      }
+    }
+    offset += b.tangent;
+  }
+  return true;
+}
+
+}  // namespace mvis

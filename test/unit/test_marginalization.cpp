@@ -1,0 +1,233 @@
+// Marginalization prior: exact on a linear problem (the reduced problem has the full problem's
+// solution), equal to a dense Schur complement on a small nonlinear problem with manifolds, and
+// a correct linear model when evaluated away from its linearization point.
+#include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
+#include <ceres/sphere_manifold.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "factor_test_util.h"
+#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/imu_factor.h"
+#include "mvis/factors/marginalization_factor.h"
+#include "mvis/factors/pose_prior_factor.h"
+
+namespace mvis {
+namespace {
+
+// r = sum_b A_b x_b - z over Euclidean blocks.
+class LinearCost final : public ceres::CostFunction {
+ public:
+  LinearCost(std::vector<Eigen::MatrixXd> A, Eigen::VectorXd z) : A_(std::move(A)), z_(z) {
+    set_num_residuals(static_cast<int>(z_.size()));
+    for (const auto& a : A_) mutable_parameter_block_sizes()->push_back(static_cast<int>(a.cols()));
+  }
+  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
+    Eigen::VectorXd r = -z_;
+    for (std::size_t b = 0; b < A_.size(); ++b) {
+      r += A_[b] * Eigen::Map<const Eigen::VectorXd>(x[b], A_[b].cols());
+      if (jacobians != nullptr && jacobians[b] != nullptr) {
+        Eigen::Map<test::RowMatrix>(jacobians[b], A_[b].rows(), A_[b].cols()) = A_[b];
+      }
+    }
+    Eigen::Map<Eigen::VectorXd>(residuals, r.size()) = r;
+    return true;
+  }
+
+ private:
+  std::vector<Eigen::MatrixXd> A_;
+  Eigen::VectorXd z_;
+};
+
+Eigen::MatrixXd randomMatrix(int rows, int cols, std::mt19937* rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::MatrixXd M(rows, cols);
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) M(i, j) = n(*rng);
+  }
+  return M;
+}
+
+void solve(ceres::Problem* problem) {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.function_tolerance = 1e-16;
+  options.gradient_tolerance = 1e-16;
+  options.parameter_tolerance = 1e-16;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, problem, &summary);
+  ASSERT_TRUE(summary.IsSolutionUsable()) << summary.BriefReport();
+}
+
+TEST(Marginalization, LinearProblemKeepsTheFullSolution) {
+  std::mt19937 rng(7);
+  const LinearCost a({randomMatrix(4, 2, &rng), randomMatrix(4, 3, &rng)},
+                     randomMatrix(4, 1, &rng));
+  const LinearCost b({randomMatrix(3, 3, &rng), randomMatrix(3, 2, &rng)},
+                     randomMatrix(3, 1, &rng));
+  const LinearCost c({randomMatrix(2, 2, &rng)}, randomMatrix(2, 1, &rng));
+  const LinearCost d({randomMatrix(3, 2, &rng)}, randomMatrix(3, 1, &rng));
+
+  // Full problem over x1 (2), x2 (3), x3 (2).
+  double x1[2] = {0, 0}, x2[3] = {0, 0, 0}, x3[2] = {0, 0};
+  auto add = [](ceres::Problem* p, const LinearCost& cost, std::vector<double*> blocks) {
+    p->AddResidualBlock(const_cast<LinearCost*>(&cost), nullptr, blocks);
+  };
+  ceres::Problem::Options borrowed;
+  borrowed.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem full(borrowed);
+  add(&full, a, {x1, x2});
+  add(&full, b, {x2, x3});
+  add(&full, c, {x1});
+  add(&full, d, {x3});
+  solve(&full);
+  const Eigen::Vector3d x2_full(x2);
+  const Eigen::Vector2d x3_full(x3);
+
+  // Marginalize x1 at an arbitrary point (the problem is linear, so the point does not matter).
+  double y1[2] = {0.3, -1.2}, y2[3] = {1.0, 2.0, -0.5}, y3[2] = {0.1, 0.2};
+  Marginalizer marginalizer;
+  marginalizer.addResidual(&a, nullptr, {y1, y2});
+  marginalizer.addResidual(&c, nullptr, {y1});
+  auto prior = marginalizer.marginalize({y1});
+  ASSERT_TRUE(prior.ok()) << prior.status().message();
+  ASSERT_EQ(prior.value()->parameterBlocks(), std::vector<double*>{y2});
+  ceres::Problem reduced(borrowed);
+  std::unique_ptr<MarginalizationFactor> owned = std::move(prior).value();
+  reduced.AddResidualBlock(owned.get(), nullptr, owned->parameterBlocks());
+  add(&reduced, b, {y2, y3});
+  add(&reduced, d, {y3});
+  solve(&reduced);
+  EXPECT_LT((Eigen::Vector3d(y2) - x2_full).norm(), 1e-9);
+  EXPECT_LT((Eigen::Vector2d(y3) - x3_full).norm(), 1e-9);
+}
+
+// A small visual-inertial-like problem: two states, gravity, an IMU factor and priors.
+struct SmallProblem {
+  std::vector<std::vector<double>> blocks;  // pose_i, sb_i, pose_j, sb_j, g
+  std::shared_ptr<ImuPreintegration> pre;
+  std::unique_ptr<ImuFactor> imu;
+  std::unique_ptr<PosePriorFactor> pose_prior;
+  std::unique_ptr<ceres::NormalPrior> sb_prior;
+};
+
+SmallProblem makeSmallProblem() {
+  SmallProblem s;
+  ImuNoise noise{2e-3, 3e-3, 1.7e-4, 1.9e-5};
+  s.pre = std::make_shared<ImuPreintegration>(noise, Eigen::Vector3d(1e-3, 0, 0),
+                                              Eigen::Vector3d(0, 0.01, 0));
+  for (int k = 0; k <= 50; ++k) {
+    const double t = k / 500.0;
+    s.pre->add({fromSeconds(t), Eigen::Vector3d(0.3 * std::sin(3 * t), 0.2, -0.1 * t),
+                Eigen::Vector3d(0.5 * std::cos(2 * t), 0.1, 9.7)});
+  }
+  s.imu = std::make_unique<ImuFactor>(s.pre);
+  SE3 T_i(lie::expQuat(Eigen::Vector3d(0.1, -0.2, 0.3)), Eigen::Vector3d(0.5, 0.2, 1.0));
+  SE3 T_j(T_i.q * lie::expQuat(Eigen::Vector3d(0.03, 0.02, -0.01)),
+          T_i.p + Eigen::Vector3d(0.01, 0.02, -0.01));
+  s.blocks.assign(5, {});
+  s.blocks[0].resize(7);
+  s.blocks[2].resize(7);
+  se3ToPose(T_i, s.blocks[0].data());
+  se3ToPose(T_j, s.blocks[2].data());
+  s.blocks[1] = {0.1, 0.2, -0.1, 1e-3, 2e-3, 0, 0.01, 0.02, -0.01};
+  s.blocks[3] = {0.12, 0.18, -0.09, 1.1e-3, 2e-3, 0, 0.01, 0.021, -0.01};
+  s.blocks[4] = {0.2, -0.1, -9.806};
+  s.pose_prior.reset(PosePriorFactor::fromStd(
+      SE3(T_i.q * lie::expQuat(Eigen::Vector3d(0.01, 0, 0)), T_i.p + Eigen::Vector3d(0, 0.01, 0)),
+      Eigen::Vector3d::Constant(0.05), Eigen::Vector3d::Constant(0.1)));
+  Eigen::Matrix<double, 9, 1> sb_mean = Eigen::Matrix<double, 9, 1>::Zero();
+  s.sb_prior = std::make_unique<ceres::NormalPrior>(
+      Eigen::MatrixXd(Eigen::Matrix<double, 9, 1>::Constant(10.0).asDiagonal()), sb_mean);
+  return s;
+}
+
+TEST(Marginalization, MatchesDenseSchurComplement) {
+  SmallProblem s = makeSmallProblem();
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &pose, nullptr, &sphere};
+  auto ptr = [&](int b) { return s.blocks[b].data(); };
+
+  Marginalizer marginalizer;
+  marginalizer.setManifold(ptr(0), &pose);
+  marginalizer.setManifold(ptr(2), &pose);
+  marginalizer.setManifold(ptr(4), &sphere);
+  marginalizer.addResidual(s.imu.get(), nullptr, {ptr(0), ptr(1), ptr(2), ptr(3), ptr(4)});
+  marginalizer.addResidual(s.pose_prior.get(), nullptr, {ptr(0)});
+  marginalizer.addResidual(s.sb_prior.get(), nullptr, {ptr(1)});
+  auto made = marginalizer.marginalize({ptr(0), ptr(1)});
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  const MarginalizationFactor& prior = *made.value();
+  ASSERT_EQ(prior.parameterBlocks(), (std::vector<double*>{ptr(2), ptr(3), ptr(4)}));
+
+  // Dense reference: the stacked tangent Jacobian of all three factors over
+  // [pose_i 6, sb_i 9 | pose_j 6, sb_j 9, g 2].
+  const int n = 32, m = 15;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(15 + 6 + 9, n);
+  Eigen::VectorXd r(15 + 6 + 9);
+  const int offsets[5] = {0, 6, 15, 21, 30};
+  const auto imu_J = test::analyticTangentJacobians(*s.imu, s.blocks, manifolds);
+  for (int b = 0; b < 5; ++b) J.block(0, offsets[b], 15, imu_J[b].cols()) = imu_J[b];
+  r.head(15) = test::evaluateResiduals(*s.imu, s.blocks);
+  const auto prior_J = test::analyticTangentJacobians(*s.pose_prior, {s.blocks[0]}, {&pose});
+  J.block(15, 0, 6, 6) = prior_J[0];
+  r.segment(15, 6) = test::evaluateResiduals(*s.pose_prior, {s.blocks[0]});
+  J.block(21, 6, 9, 9) = test::analyticTangentJacobians(*s.sb_prior, {s.blocks[1]}, {nullptr})[0];
+  r.tail(9) = test::evaluateResiduals(*s.sb_prior, {s.blocks[1]});
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd g = J.transpose() * r;
+  const Eigen::MatrixXd Hmm_inv = H.topLeftCorner(m, m).inverse();
+  const Eigen::MatrixXd Hs = H.bottomRightCorner(n - m, n - m) -
+                             H.bottomLeftCorner(n - m, m) * Hmm_inv * H.topRightCorner(m, n - m);
+  const Eigen::VectorXd gs = g.tail(n - m) - H.bottomLeftCorner(n - m, m) * Hmm_inv * g.head(m);
+
+  const Eigen::MatrixXd H_prior = prior.J0().transpose() * prior.J0();
+  const Eigen::VectorXd g_prior = prior.J0().transpose() * prior.r0();
+  // Same arithmetic in another order. The Schur complement cancels terms as large as the
+  // kept blocks' own information (bias random walk ~1e10 here), so compare relative to that
+  // scale: Jacobi-scaled by D = diag(H_kk), the differences are round-off, ~1e-16 * cond.
+  const Eigen::VectorXd inv_sqrt_d = H.diagonal().tail(n - m).cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd scaled_error =
+      inv_sqrt_d.asDiagonal() * (H_prior - Hs) * inv_sqrt_d.asDiagonal();
+  EXPECT_LT(scaled_error.cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_LT((inv_sqrt_d.asDiagonal() * (g_prior - gs)).cwiseAbs().maxCoeff(), 1e-10);
+  // Evaluated at its linearization point the prior is r0; moved by dx in the tangent, it is
+  // r0 + J0 dx (the Minus of each manifold undoes its Plus).
+  auto kept = std::vector<std::vector<double>>{s.blocks[2], s.blocks[3], s.blocks[4]};
+  EXPECT_LT((test::evaluateResiduals(prior, kept) - prior.r0()).norm(), 1e-12);
+  Eigen::VectorXd dx(17);
+  for (int i = 0; i < 17; ++i) dx[i] = 1e-3 * std::sin(1.0 + i);
+  auto moved = kept;
+  pose.Plus(kept[0].data(), dx.data(), moved[0].data());
+  for (int i = 0; i < 9; ++i) moved[1][i] += dx[6 + i];
+  sphere.Plus(kept[2].data(), dx.data() + 15, moved[2].data());
+  EXPECT_LT((test::evaluateResiduals(prior, moved) - (prior.r0() + prior.J0() * dx)).norm(),
+            1e-6 * (prior.J0() * dx).norm());
+  // At the linearization point its Jacobians match central differences through the manifolds
+  // (away from it they stay J0: the first-estimate approximation, off by O(|dx|)).
+  const std::vector<const ceres::Manifold*> kept_manifolds = {&pose, nullptr, &sphere};
+  EXPECT_LT(
+      test::jacobianMismatch(test::analyticTangentJacobians(prior, kept, kept_manifolds),
+                             test::numericTangentJacobians(prior, kept, kept_manifolds, 1e-6)),
+      1e-5);
+}
+
+TEST(PosePriorFactor, JacobiansMatchCentralDifferences) {
+  const std::unique_ptr<PosePriorFactor> f(PosePriorFactor::fromStd(
+      SE3(lie::expQuat(Eigen::Vector3d(0.3, 0.1, -0.2)), Eigen::Vector3d(1, 2, 3)),
+      Eigen::Vector3d(0.01, 0.02, 0.03), Eigen::Vector3d(0.1, 0.2, 0.3)));
+  std::vector<std::vector<double>> blocks = {std::vector<double>(7)};
+  se3ToPose(SE3(lie::expQuat(Eigen::Vector3d(0.5, -0.2, 0.1)), Eigen::Vector3d(1.1, 2, 2.9)),
+            blocks[0].data());
+  const PoseManifold pose;
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*f, blocks, {&pose}),
+                                   test::numericTangentJacobians(*f, blocks, {&pose}, 1e-6)),
+            1e-6);
+}
+
+}  // namespace
+}  // namespace mvis
