@@ -45,3 +45,4 @@ target_compile_definitions(test_simulation_bag PRIVATE MVIS_SOURCE_DIR="${PROJEC
 mvis_core_test(test_imu_factor test/unit/test_imu_factor.cpp)
 mvis_core_test(test_tag_reprojection_factor test/unit/test_tag_reprojection_factor.cpp)
 mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
+mvis_core_test(test_estimator test/unit/test_estimator.cpp)

@@ -1,6 +1,7 @@
 // Tag reprojection factor on the simulated VI-Rig: at the true states it reproduces the true
 // corner projections (to the interpolation's approximation error), and its Jacobians match
 // central differences through the manifolds for both interpolations.
+#include <ceres/sphere_manifold.h>
 #include <gtest/gtest.h>
 
 #include "factor_test_util.h"
@@ -8,6 +9,7 @@
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "mvis/rig/rig_io.h"
+#include "mvis/sim/imu_simulator.h"
 #include "mvis/sim/rig_simulator.h"
 
 namespace mvis {
@@ -105,6 +107,80 @@ TEST(TagReprojectionFactor, PoseBasedAtTruthReproducesProjections) {
   // Linear interpolation over 33 ms: ~|a| T^2 / 8 ~ 0.1 mm at ~1 m and 600 px focal length,
   // under 0.1 px; a wrong time-offset sign would move corners by several pixels.
   EXPECT_LT(maxPixelError(*f, blocks, sigma), 0.15);
+}
+
+// The IMU-propagated factor of camera c for a frame at camera time t_c, anchored at base time
+// t_a (3 ms before the frame's true base time, as after a time-offset change), from state t_k.
+std::unique_ptr<TagReprojectionFactor> imuPropagatedFactor(const Scene& s, int c, double t_k,
+                                                           double t_c, double t_a,
+                                                           const Eigen::Vector3d& bias_gyro,
+                                                           const Eigen::Vector3d& bias_accel) {
+  InertialSensor imu = s.rig.inertial[0];
+  const TrajectoryFunction base = [&](double t) { return s.trajectory.evaluate(t); };
+  ImuSimulationOptions noise_free;
+  noise_free.noise = false;
+  noise_free.biases = false;
+  ImuPreintegration pre(imu.noise, bias_gyro, bias_accel);
+  const TimeNs a = fromSeconds(t_k), b = fromSeconds(t_a);
+  for (const auto& r : simulateImu(imu, base, 0, a, b, noise_free)) {
+    pre.add({r.stamp_ns, r.gyro, r.accel});
+  }
+  // simulateImu samples at 500 Hz from t_k; end exactly at t_a.
+  Eigen::Vector3d w, f;
+  trueInertialMotion(imu, s.trajectory.evaluate(t_a), &w, &f);
+  if (pre.endNs() != b) pre.add({b, w, f});
+  const TagReprojectionFactor::ImuAnchor anchor =
+      TagReprojectionFactor::makeAnchor(pre, t_c - t_a, w, f, s.trajectory.evaluate(t_a).dw_I);
+  return std::unique_ptr<TagReprojectionFactor>(TagReprojectionFactor::imuPropagated(
+      s.rig.cameras[c].distortion_model, observe(s, c, t_c), 0.5, anchor));
+}
+
+std::vector<double> speedBiasBlock(const TrajectoryState& st) {
+  std::vector<double> sb(9, 0.0);
+  Eigen::Map<Eigen::Vector3d>(sb.data()) = st.v_G;
+  return sb;
+}
+
+TEST(TagReprojectionFactor, ImuPropagatedAtTruthReproducesProjections) {
+  const Scene s = makeScene(-0.006);
+  const double t_k = 5.0, t_c = t_k + 0.4 / 30.0 + 0.006;
+  const double t_a = t_c - 0.006 - 0.003;  // anchored 3 ms early
+  auto f =
+      imuPropagatedFactor(s, 1, t_k, t_c, t_a, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  ASSERT_GT(f->corners().size(), 30u);
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
+                                                   speedBiasBlock(sk),
+                                                   {kGravity_G.x(), kGravity_G.y(), kGravity_G.z()},
+                                                   poseBlock(s.rig.cameras[1].T_cam_imu),
+                                                   {-0.006},
+                                                   intrinsicsBlock(s.rig.cameras[1])};
+  // Preintegration errs by ~1e-7 m over 13 ms and the second-order step by ~|jerk| dt^3 / 6
+  // ~5e-9 m: far under 0.01 px (the pose-based interpolation above: ~0.1 px).
+  EXPECT_LT(maxPixelError(*f, blocks, 0.5), 0.01);
+}
+
+TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
+  const Scene s = makeScene(0.01);
+  const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
+  auto f = imuPropagatedFactor(s, 2, t_k, t_c, t_a, Eigen::Vector3d(1e-3, -2e-3, 5e-4),
+                               Eigen::Vector3d(0.02, -0.01, 0.03));
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
+  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
+  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
+                                                   sb,
+                                                   {g.x(), g.y(), g.z()},
+                                                   poseBlock(s.rig.cameras[2].T_cam_imu),
+                                                   {0.012},
+                                                   intrinsicsBlock(s.rig.cameras[2])};
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &sphere,
+                                                         &pose, nullptr, nullptr};
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*f, blocks, manifolds),
+                                   test::numericTangentJacobians(*f, blocks, manifolds, 1e-6)),
+            1e-5);
 }
 
 void checkJacobians(TagReprojectionFactor::Interpolation mode) {

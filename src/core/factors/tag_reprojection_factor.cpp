@@ -9,7 +9,10 @@
 namespace mvis {
 namespace {
 
-constexpr int kStageDim = 19;  // tangent directions of the camera pose (see the header)
+// Directions of the camera pose's derivatives: [dtheta_k, dp_k] 0-5; v_k, b_g,k, b_a,k 6-14
+// (or dtheta_k+1, dp_k+1 6-11 for pose-based); gravity 15-17; dtheta_e, dp_e 18-23; t_d 24.
+constexpr int kStageDim = 25;
+constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
 using Jet19 = ceres::Jet<double, kStageDim>;
 using Jet11 = ceres::Jet<double, 11>;
 
@@ -63,6 +66,40 @@ TagReprojectionFactor* TagReprojectionFactor::poseBased(DistortionModel model,
                                    pixel_sigma, dt_nominal, interval, Eigen::Vector3d::Zero());
 }
 
+TagReprojectionFactor::ImuAnchor TagReprojectionFactor::makeAnchor(
+    const ImuPreintegration& pre, double dt_nominal, const Eigen::Vector3d& gyro,
+    const Eigen::Vector3d& accel, const Eigen::Vector3d& angular_acceleration) {
+  using P = ImuPreintegration;
+  ImuAnchor a;
+  a.T_a = pre.duration();
+  a.dt_nominal = dt_nominal;
+  a.dR = pre.deltaR();
+  a.dp = pre.deltaP();
+  a.dv = pre.deltaV();
+  a.bias_gyro0 = pre.biasGyro();
+  a.bias_accel0 = pre.biasAccel();
+  const auto& J = pre.jacobian();
+  a.J_R_bg = J.block<3, 3>(P::kRotation, P::kBiasGyro);
+  a.J_p_bg = J.block<3, 3>(P::kPosition, P::kBiasGyro);
+  a.J_p_ba = J.block<3, 3>(P::kPosition, P::kBiasAccel);
+  a.J_v_bg = J.block<3, 3>(P::kVelocity, P::kBiasGyro);
+  a.J_v_ba = J.block<3, 3>(P::kVelocity, P::kBiasAccel);
+  a.gyro = gyro;
+  a.accel = accel;
+  a.angular_acceleration = angular_acceleration;
+  return a;
+}
+
+TagReprojectionFactor* TagReprojectionFactor::imuPropagated(DistortionModel model,
+                                                            std::vector<CornerObservation> corners,
+                                                            double pixel_sigma,
+                                                            const ImuAnchor& anchor) {
+  auto* f = new TagReprojectionFactor(Interpolation::kImuPropagated, model, std::move(corners),
+                                      pixel_sigma, anchor.dt_nominal, 0.0, anchor.gyro);
+  f->anchor_ = anchor;
+  return f;
+}
+
 TagReprojectionFactor::TagReprojectionFactor(Interpolation interpolation, DistortionModel model,
                                              std::vector<CornerObservation> corners,
                                              double pixel_sigma, double dt_nominal, double interval,
@@ -75,24 +112,32 @@ TagReprojectionFactor::TagReprojectionFactor(Interpolation interpolation, Distor
       interval_(interval),
       gyro_k_(gyro_k) {
   set_num_residuals(2 * static_cast<int>(corners_.size()));
+  switch (interpolation) {
+    case Interpolation::kKinematic:
+      layout_ = {{0, 6, 7}, {6, 9, 9}, {kExtrinsicJet, 6, 7}, {kTimeOffsetJet, 1, 1}};
+      break;
+    case Interpolation::kPoseBased:
+      layout_ = {{0, 6, 7}, {6, 6, 7}, {kExtrinsicJet, 6, 7}, {kTimeOffsetJet, 1, 1}};
+      break;
+    case Interpolation::kImuPropagated:
+      layout_ = {{0, 6, 7}, {6, 9, 9}, {15, 3, 3}, {kExtrinsicJet, 6, 7}, {kTimeOffsetJet, 1, 1}};
+      break;
+  }
   auto* sizes = mutable_parameter_block_sizes();
   sizes->clear();
-  sizes->push_back(7);
-  sizes->push_back(interpolation == Interpolation::kKinematic ? 9 : 7);
-  sizes->push_back(7);
-  sizes->push_back(1);
+  for (const auto& b : layout_) sizes->push_back(b.ambient);
   sizes->push_back(8);
 }
 
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
-  // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the 19 directions
-  // [dtheta_k, dp_k, (v_k, b_g,k) or (dtheta_k+1, dp_k+1), dtheta_e, dp_e, dt_d].
+  // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
+  // listed at kStageDim.
+  const int n_blocks = static_cast<int>(layout_.size());
   const double* pose_k = parameters[0];
-  const Eigen::Quaterniond q_k = poseRotation(pose_k);
-  const Mat3<Jet19> R_k = perturbRotation(q_k, 0);
+  const Mat3<Jet19> R_k = perturbRotation(poseRotation(pose_k), 0);
   const Vec3<Jet19> p_k = perturbVector(pose_k + 4, 3);
-  const Jet19 t_d(parameters[3][0], 18);
+  const Jet19 t_d(parameters[n_blocks - 1][0], kTimeOffsetJet);
   const Jet19 dt = Jet19(dt_nominal_) + t_d;
 
   Mat3<Jet19> R;  // R_G_I(t)
@@ -103,25 +148,57 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
     const Vec3<Jet19> w = gyro_k_.cast<Jet19>() - b_g;
     R = R_k * expT<Jet19>(w * dt);
     p = p_k + v * dt;
-  } else {
+  } else if (interpolation_ == Interpolation::kPoseBased) {
     const double* pose_k1 = parameters[1];
-    const Eigen::Quaterniond q_k1 = poseRotation(pose_k1);
-    const Mat3<Jet19> R_k1 = perturbRotation(q_k1, 6);
+    const Mat3<Jet19> R_k1 = perturbRotation(poseRotation(pose_k1), 6);
     const Vec3<Jet19> p_k1 = perturbVector(pose_k1 + 4, 9);
     const Jet19 s = dt / interval_;
     const Mat3<Jet19> R_rel = R_k.transpose() * R_k1;
     R = R_k * expT<Jet19>(logT(R_rel) * s);
     p = p_k + (p_k1 - p_k) * s;
+  } else {
+    const ImuAnchor& a = anchor_;
+    const Vec3<Jet19> v = perturbVector(parameters[1], 6);
+    const Vec3<Jet19> b_g = perturbVector(parameters[1] + 3, 9);
+    const Vec3<Jet19> b_a = perturbVector(parameters[1] + 6, 12);
+    const Vec3<Jet19> g = perturbVector(parameters[2], 15);
+    const Vec3<Jet19> dbg = b_g - a.bias_gyro0.cast<Jet19>();
+    const Vec3<Jet19> dba = b_a - a.bias_accel0.cast<Jet19>();
+    const Mat3<Jet19> dR =
+        a.dR.toRotationMatrix().cast<Jet19>() * expT<Jet19>(a.J_R_bg.cast<Jet19>() * dbg);
+    const Vec3<Jet19> dp =
+        a.dp.cast<Jet19>() + a.J_p_bg.cast<Jet19>() * dbg + a.J_p_ba.cast<Jet19>() * dba;
+    const Vec3<Jet19> dv =
+        a.dv.cast<Jet19>() + a.J_v_bg.cast<Jet19>() * dbg + a.J_v_ba.cast<Jet19>() * dba;
+    const Jet19 T(a.T_a);
+    const Mat3<Jet19> R_a = R_k * dR;
+    const Vec3<Jet19> p_a = p_k + v * T + g * (Jet19(0.5) * T * T) + R_k * dp;
+    const Vec3<Jet19> v_a = v + g * T + R_k * dv;
+    const Vec3<Jet19> w = a.gyro.cast<Jet19>() - b_g;
+    const Vec3<Jet19> acc = R_a * (a.accel.cast<Jet19>() - b_a) + g;
+    R = R_a * expT<Jet19>(w * dt + a.angular_acceleration.cast<Jet19>() * (Jet19(0.5) * dt * dt));
+    p = p_a + v_a * dt + acc * (Jet19(0.5) * dt * dt);
   }
-  const double* extrinsic = parameters[2];
-  const Eigen::Quaterniond q_CI = poseRotation(extrinsic);
-  const Mat3<Jet19> R_CI = perturbRotation(q_CI, 12);
-  const Vec3<Jet19> p_CI = perturbVector(extrinsic + 4, 15);
+  const double* extrinsic = parameters[n_blocks - 2];
+  const Mat3<Jet19> R_CI = perturbRotation(poseRotation(extrinsic), kExtrinsicJet);
+  const Vec3<Jet19> p_CI = perturbVector(extrinsic + 4, kExtrinsicJet + 3);
   const Mat3<Jet19> R_CG = R_CI * R.transpose();
   const Vec3<Jet19> t_CG = p_CI - R_CG * p;
 
-  // Stage 2: each corner.
-  const double* intrinsics = parameters[4];
+  // Stage 2: each corner. p_C = R_CG p_G + t_CG is linear in p_G, so its derivatives are
+  // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
+  Eigen::Matrix3d R_val;
+  Eigen::Vector3d t_val;
+  Eigen::Matrix<double, 3, kStageDim> dR[3], dT;
+  for (int i = 0; i < 3; ++i) {
+    t_val[i] = t_CG[i].a;
+    dT.row(i) = t_CG[i].v.transpose();
+    for (int j = 0; j < 3; ++j) {
+      R_val(i, j) = R_CG(i, j).a;
+      dR[j].row(i) = R_CG(i, j).v.transpose();
+    }
+  }
+  const double* intrinsics = parameters[n_blocks];
   Eigen::Matrix<Jet11, 4, 1> k, d;
   for (int i = 0; i < 4; ++i) {
     k[i] = Jet11(intrinsics[i], 3 + i);
@@ -129,46 +206,32 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
   }
   const double inv_sigma = 1.0 / sigma_;
   for (std::size_t c = 0; c < corners_.size(); ++c) {
-    const Vec3<Jet19> pc = R_CG * corners_[c].p_G.cast<Jet19>() + t_CG;
-    if (!(pc[2].a > 1e-6)) return false;  // behind the camera: Ceres rejects the step
+    const Eigen::Vector3d& p_G = corners_[c].p_G;
+    const Eigen::Vector3d pc = R_val * p_G + t_val;
+    if (!(pc[2] > 1e-6)) return false;  // behind the camera: Ceres rejects the step
     Vec3<Jet11> pc11;
-    for (int i = 0; i < 3; ++i) pc11[i] = Jet11(pc[i].a, i);
+    for (int i = 0; i < 3; ++i) pc11[i] = Jet11(pc[i], i);
     const Eigen::Matrix<Jet11, 2, 1> uv = projectPoint<Jet11>(model_, k, d, pc11);
     const int row = 2 * static_cast<int>(c);
     for (int i = 0; i < 2; ++i) residuals[row + i] = (uv[i].a - corners_[c].uv[i]) * inv_sigma;
     if (jacobians == nullptr) continue;
 
     Eigen::Matrix<double, 2, 3> J_pc;
-    Eigen::Matrix<double, 3, kStageDim> D;
     for (int i = 0; i < 2; ++i) J_pc.row(i) = uv[i].v.head<3>().transpose() * inv_sigma;
-    for (int i = 0; i < 3; ++i) D.row(i) = pc[i].v.transpose();
+    const Eigen::Matrix<double, 3, kStageDim> D =
+        dR[0] * p_G.x() + dR[1] * p_G.y() + dR[2] * p_G.z() + dT;
     const Eigen::Matrix<double, 2, kStageDim> J = J_pc * D;
     for (int i = 0; i < 2; ++i) {
       const int r = row + i;
-      if (jacobians[0] != nullptr) {
-        double* out = jacobians[0] + 7 * r;
-        for (int j = 0; j < 6; ++j) out[j] = J(i, j);
-        out[6] = 0.0;
+      for (int b = 0; b < n_blocks; ++b) {
+        if (jacobians[b] == nullptr) continue;
+        const BlockLayout& l = layout_[b];
+        double* out = jacobians[b] + l.ambient * r;
+        for (int j = 0; j < l.columns; ++j) out[j] = J(i, l.jet_offset + j);
+        for (int j = l.columns; j < l.ambient; ++j) out[j] = 0.0;
       }
-      if (jacobians[1] != nullptr) {
-        if (interpolation_ == Interpolation::kKinematic) {
-          double* out = jacobians[1] + 9 * r;
-          for (int j = 0; j < 6; ++j) out[j] = J(i, 6 + j);
-          for (int j = 6; j < 9; ++j) out[j] = 0.0;
-        } else {
-          double* out = jacobians[1] + 7 * r;
-          for (int j = 0; j < 6; ++j) out[j] = J(i, 6 + j);
-          out[6] = 0.0;
-        }
-      }
-      if (jacobians[2] != nullptr) {
-        double* out = jacobians[2] + 7 * r;
-        for (int j = 0; j < 6; ++j) out[j] = J(i, 12 + j);
-        out[6] = 0.0;
-      }
-      if (jacobians[3] != nullptr) jacobians[3][r] = J(i, 18);
-      if (jacobians[4] != nullptr) {
-        double* out = jacobians[4] + 8 * r;
+      if (jacobians[n_blocks] != nullptr) {
+        double* out = jacobians[n_blocks] + 8 * r;
         for (int j = 0; j < 8; ++j) out[j] = uv[i].v[3 + j] * inv_sigma;
       }
     }

@@ -1,0 +1,145 @@
+// The sliding-window estimator: one facade that takes base-IMU readings and tag frames of any
+// number of asynchronous cameras, and returns estimates through a callback (no ROS).
+//
+// Method (report Sec. 1.3-2.1, solved online with Ceres): window states are base-IMU states
+// [q, p, v, b_g, b_a] at base-camera (cam0) times (Eq. 12). Between consecutive states an
+// ImuFactor; each camera frame is a TagReprojectionFactor on the state at or before it, its pose
+// propagated there with the IMU readings (or, with interpolation kReport, the report's Appendix
+// A: kinematic for cam0 frames, pose-based between the two states around other frames). Calibration
+// blocks (extrinsic T_C_I, time offset, intrinsics per camera, and the gravity direction in the
+// board frame) always exist; switches only hold them constant. When the window is full the oldest
+// state is marginalized into a prior (MarginalizationFactor).
+//
+// The world frame is the board's (aprilgrid.yaml); gravity is estimated in it. Initialization
+// waits for `init_frames` consecutive cam0 frames in which the board gives a pose (PnP), takes
+// velocities from their differences and gravity from the preintegrated readings, then solves
+// that window as a batch. Until then `status()` says what it is waiting for.
+//
+// Clocks: IMU readings of imu0 are in the base clock; a frame stamped t_c in camera c's clock
+// happened at t_c + t_d,c (Kalibr's timeshift_cam_imu).
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mvis/common/lie.h"
+#include "mvis/common/status.h"
+#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/frontend/tag_observation.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+// How a camera frame's pose comes from the window states (see tag_reprojection_factor.h).
+enum class FrameInterpolation {
+  kImu,     // IMU-propagated from the state before the frame (default)
+  kReport,  // the report's Appendix A: kinematic for cam0, pose-based for the others
+};
+
+struct EstimatorOptions {
+  FrameInterpolation interpolation = FrameInterpolation::kImu;
+  int window_size = 10;               // states kept in the window (>= 3)
+  int max_iterations = 10;            // per solve
+  double max_solve_time_s = 0.05;     // per solve [s]
+  int threads = 1;                    // Ceres threads
+  double pixel_sigma_px = 1.0;        // corner noise [px]
+  double huber_sigma = 3.0;           // robust loss threshold [sigma units], 0: plain squares
+  bool estimate_extrinsics = true;    // camera-IMU T_C_I of every camera
+  bool estimate_time_offsets = true;  // timeshift_cam_imu of every camera
+  bool estimate_intrinsics = false;   // camera intrinsics and distortion (issue: intrinsics)
+  int init_frames = 10;               // consecutive cam0 frames with a board pose to initialize
+  int min_tags = 2;                   // tags a frame needs to be used at all
+  double gravity_m_s2 = 9.81;         // magnitude of gravity
+  // Prior standard deviations where the configuration has no *_std keys.
+  double extrinsic_rotation_prior_rad = 0.1;
+  double extrinsic_translation_prior_m = 0.1;
+  double time_offset_prior_s = 0.05;
+  double bias_gyro_prior = 0.02;  // [rad/s] on the first state
+  double bias_accel_prior = 0.2;  // [m/s^2] on the first state
+  double velocity_prior = 0.5;    // [m/s] on the first state
+  int covariance_every = 30;      // solves between calibration covariances (0: never)
+};
+
+// Checked at creation: a clear message naming the option.
+Status validate(const EstimatorOptions& options);
+
+struct EstimatorState {
+  TimeNs stamp_ns = 0;  // base clock
+  SE3 T_G_I;            // base IMU in the world (board) frame
+  Eigen::Vector3d v_G = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bias_gyro = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
+};
+
+struct SolveSummary {
+  int iterations = 0;
+  double solve_s = 0.0;  // Ceres time
+  double total_s = 0.0;  // including marginalization and bookkeeping
+  int states = 0;
+  int frames = 0;     // camera frames in the window
+  int corners = 0;    // corner observations in the window
+  double cost = 0.0;  // final Ceres cost
+  bool usable = false;
+};
+
+struct EstimatorUpdate {
+  EstimatorState state;  // the newest window state
+  Eigen::Matrix<double, 6, 6> pose_covariance =
+      Eigen::Matrix<double, 6, 6>::Zero();  // NaN: unknown
+  SolveSummary solve;
+};
+
+// Counters of what the estimator dropped, and why.
+struct EstimatorCounters {
+  long imu_out_of_order = 0;
+  long imu_non_finite = 0;
+  long frames_too_few_tags = 0;
+  long frames_too_old = 0;  // before the window
+  long frames_out_of_order = 0;
+  long resets = 0;
+  long solves = 0;
+};
+
+class Estimator {
+ public:
+  using UpdateCallback = std::function<void(const EstimatorUpdate&)>;
+
+  // Needs a rig with at least one camera and a board (aprilgrid.yaml).
+  static StatusOr<std::unique_ptr<Estimator>> create(const Rig& rig,
+                                                     const EstimatorOptions& options);
+  ~Estimator();
+  Estimator(const Estimator&) = delete;
+  Estimator& operator=(const Estimator&) = delete;
+
+  // A reading of inertial sensor `sensor` (0: the base IMU; auxiliary sensors are not used yet)
+  // stamped in its own clock. Errors describe a dropped reading; a stamp more than 1 s before
+  // the last one is taken as a restart (bag replay): the estimator resets and says so.
+  Status addImu(std::size_t sensor, const ImuMeasurement& measurement);
+  // Tags of one camera frame (camera clock). Errors describe a dropped frame.
+  Status addTagFrame(const TagFrame& frame);
+
+  void setUpdateCallback(UpdateCallback callback);
+
+  // The rig with the current calibration estimate; with standard deviations when a covariance
+  // has been computed (computeCovariance, or every `covariance_every` solves).
+  Rig calibration() const;
+  Status computeCovariance();
+  // Every state that has left the window, then the window's.
+  std::vector<EstimatorState> trajectory() const;
+  // What the estimator is doing, for diagnostics and logs ("initializing: 4 of 10 frames").
+  std::string status() const;
+  bool initialized() const;
+  const EstimatorCounters& counters() const;
+  // Drops everything but the calibration estimate and starts over.
+  void reset();
+
+ private:
+  struct Impl;
+  explicit Estimator(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mvis
