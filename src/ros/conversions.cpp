@@ -1,5 +1,8 @@
 #include "mvis/ros/conversions.h"
 
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+
 #include <limits>
 
 namespace mvis::ros_conversions {
@@ -124,6 +127,44 @@ mvis::Calibration toCalibrationMsg(const Rig& rig, const std::string& frame_pref
   for (const auto& s : rig.inertial) msg.inertial.push_back(toMsg(s, frame_prefix));
   for (const auto& c : rig.cameras) msg.cameras.push_back(toMsg(c, frame_prefix));
   return msg;
+}
+
+namespace {
+
+bool finiteVector(const geometry_msgs::Vector3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+}  // namespace
+
+bool toImuMeasurement(const sensor_msgs::Imu& msg, bool gyroscope_only, ImuMeasurement* out,
+                      std::string* why) {
+  if (!finiteVector(msg.angular_velocity) ||
+      (!gyroscope_only && !finiteVector(msg.linear_acceleration))) {
+    *why = "a sample with NaN or inf values";
+    return false;
+  }
+  out->stamp_ns = toTimeNs(msg.header.stamp);
+  out->gyro = {msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z};
+  out->accel = gyroscope_only
+                   ? Eigen::Vector3d::Zero()
+                   : Eigen::Vector3d(msg.linear_acceleration.x, msg.linear_acceleration.y,
+                                     msg.linear_acceleration.z);
+  return true;
+}
+
+bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
+  if (msg->height > 0 && msg->data.size() < static_cast<std::size_t>(msg->step) * msg->height) {
+    *why = "image data (" + std::to_string(msg->data.size()) + " bytes) shorter than step x height";
+    return false;
+  }
+  try {
+    *gray = cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::MONO8)->image;
+  } catch (const std::exception& e) {  // cv_bridge::Exception or cv::Exception
+    *why = "cannot use encoding '" + msg->encoding + "': " + e.what();
+    return false;
+  }
+  return true;
 }
 
 }  // namespace mvis::ros_conversions

@@ -134,22 +134,14 @@ void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg)
 }
 
 void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg) {
-  // cv_bridge trusts width, height and step; a message whose data is shorter would be read
-  // past its end.
-  if (msg->height > 0 && msg->data.size() < static_cast<std::size_t>(msg->step) * msg->height) {
-    rejectCameraMessage(camera, "image data (" + std::to_string(msg->data.size()) +
-                                    " bytes) shorter than step x height");
-    return;
-  }
-  cv_bridge::CvImageConstPtr image;
-  try {
-    image = cv_bridge::toCvShare(msg, sensor_msgs::image_encodings::MONO8);
-  } catch (const std::exception& e) {  // cv_bridge::Exception or cv::Exception
-    rejectCameraMessage(camera, "cannot use encoding '" + msg->encoding + "': " + e.what());
+  cv::Mat gray;
+  std::string why;
+  if (!ros_conversions::toGray(msg, &gray, &why)) {
+    rejectCameraMessage(camera, why);
     return;
   }
   const auto result =
-      frontend_->processImage(camera, ros_conversions::toTimeNs(msg->header.stamp), image->image);
+      frontend_->processImage(camera, ros_conversions::toTimeNs(msg->header.stamp), gray);
   if (!result.ok()) {
     rejectCameraMessage(camera, result.status().message());
     return;
@@ -158,7 +150,7 @@ void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& 
   auto& debug_pub = debug_image_pubs_[camera];
   if (debug_pub.getNumSubscribers() > 0) {
     debug_pub.publish(cv_bridge::CvImage(msg->header, sensor_msgs::image_encodings::BGR8,
-                                         drawTagFrame(image->image, result.value().frame))
+                                         drawTagFrame(gray, result.value().frame))
                           .toImageMsg());
   }
 }

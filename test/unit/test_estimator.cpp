@@ -5,9 +5,9 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <map>
 
 #include "mvis/estimator/estimator.h"
+#include "mvis/estimator/evaluation.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/sim/simulation.h"
 
@@ -86,10 +86,10 @@ struct CameraErrors {
 
 CameraErrors errors(const Camera& truth, const Camera& estimate) {
   CameraErrors e;
-  // Errors in the estimate's tangent (right perturbation): T_true = T_est [+] delta.
-  const Eigen::Vector3d dtheta = lie::logQuat(estimate.T_cam_imu.q.conjugate() * truth.T_cam_imu.q);
-  const Eigen::Vector3d dp = truth.T_cam_imu.p - estimate.T_cam_imu.p;
-  const double dt = truth.timeshift_cam_imu - estimate.timeshift_cam_imu;
+  const CameraCalibrationError err = cameraError(truth, estimate);
+  const Eigen::Vector3d& dtheta = err.rotation;
+  const Eigen::Vector3d& dp = err.translation;
+  const double dt = err.time_offset;
   e.rotation_deg = dtheta.norm() * 180.0 / M_PI;
   e.translation_mm = dp.norm() * 1e3;
   e.time_offset_ms = std::abs(dt) * 1e3;
@@ -99,28 +99,6 @@ CameraErrors errors(const Camera& truth, const Camera& estimate) {
     e.time_offset_sigma_ratio = std::abs(dt) / estimate.std->timeshift_cam_imu;
   }
   return e;
-}
-
-double ateRmse(const std::vector<EstimatorState>& estimate, const std::vector<StampedPose>& truth) {
-  std::map<TimeNs, SE3> by_stamp;
-  for (const auto& [stamp, pose] : truth) by_stamp[stamp] = pose;
-  double sum = 0.0;
-  int n = 0;
-  for (const auto& s : estimate) {
-    auto it = by_stamp.lower_bound(s.stamp_ns);
-    if (it == by_stamp.end()) continue;
-    // Truth is at 500 Hz; states sit at camera times. Interpolate between the neighbours.
-    if (it->first != s.stamp_ns && it != by_stamp.begin()) {
-      auto before = std::prev(it);
-      const double lambda = static_cast<double>(s.stamp_ns - before->first) /
-                            static_cast<double>(it->first - before->first);
-      sum += (lie::interpolatePose(before->second, it->second, lambda).p - s.T_G_I.p).squaredNorm();
-    } else {
-      sum += (it->second.p - s.T_G_I.p).squaredNorm();
-    }
-    ++n;
-  }
-  return n > 0 ? std::sqrt(sum / n) : 1e9;
 }
 
 TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
@@ -167,8 +145,8 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
   for (const auto& s : trajectory) {
     if (s.stamp_ns - trajectory.front().stamp_ns > fromSeconds(5.0)) converged.push_back(s);
   }
-  const double ate = ateRmse(trajectory, run.truth_trajectory);
-  const double ate_converged = ateRmse(converged, run.truth_trajectory);
+  const double ate = positionRmse(trajectory, run.truth_trajectory);
+  const double ate_converged = positionRmse(converged, run.truth_trajectory);
   std::sort(total_ms.begin(), total_ms.end());
   std::printf("ATE RMSE %.2f mm (after 5 s: %.2f mm) over %zu states; %d updates, median %.1f ms\n",
               ate * 1e3, ate_converged * 1e3, trajectory.size(), updates,

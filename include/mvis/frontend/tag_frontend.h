@@ -1,8 +1,8 @@
 // The tag front end of a rig: one detector per camera, one set of checks, one track store.
 // Images and detections made elsewhere take the same path after detection:
-//   image ------> TagDetector --\
+//   image ------> TagDetector --+
 //                                +--> checkTagFrame --> TagTracks --> the checked frame
-//   detections (messages) ------/
+//   detections (messages) ------+
 // Thread safety: different cameras may be processed concurrently; one camera's frames must
 // come one at a time (as ROS subscription callbacks do).
 #pragma once

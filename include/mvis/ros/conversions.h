@@ -5,11 +5,15 @@
 #include <mvis/Calibration.h>
 #include <mvis/TagDetectionArray.h>
 #include <ros/time.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Imu.h>
 
+#include <opencv2/core/mat.hpp>
 #include <string>
 
 #include "mvis/common/lie.h"
 #include "mvis/common/time.h"
+#include "mvis/estimator/imu_preintegration.h"
 #include "mvis/frontend/tag_observation.h"
 #include "mvis/rig/rig.h"
 
@@ -23,6 +27,16 @@ geometry_msgs::Transform toTransformMsg(const SE3& T);
 // Detections made elsewhere, for camera index `camera`. Values are copied as they are; the
 // front end's checks decide what is usable.
 TagFrame toTagFrame(const mvis::TagDetectionArray& msg, std::size_t camera);
+
+// An inertial reading stamped in its sensor's clock. False (and `why` says which) when the
+// angular velocity, or the linear acceleration of an IMU (not of a gyroscope), is not finite.
+bool toImuMeasurement(const sensor_msgs::Imu& msg, bool gyroscope_only, ImuMeasurement* out,
+                      std::string* why);
+
+// The image as 8-bit gray (shared with the message when it is mono8 already). False, with the
+// reason in `why`, for data shorter than step x height (cv_bridge would read past its end) or an
+// encoding cv_bridge cannot turn into mono8.
+bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
 
 // The rig's calibration as a message. Sensors without std get NaN standard deviations
 // ("not yet known"). Frame ids are frame_prefix + sensor name.

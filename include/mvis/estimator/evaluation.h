@@ -1,0 +1,34 @@
+// Comparing an estimate with the truth: trajectory error and calibration tables, for the demo,
+// mvis_offline and the tests.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "mvis/estimator/estimator.h"
+#include "mvis/rig/rig.h"
+#include "mvis/rig/trajectory_io.h"
+
+namespace mvis {
+
+// Root-mean-square position error [m] of the estimated states against a denser true
+// trajectory (interpolated at the states' stamps), in the common world frame, without
+// alignment. States outside the truth's time span are skipped; NaN if none is left.
+double positionRmse(const std::vector<EstimatorState>& estimate,
+                    const std::vector<StampedPose>& truth);
+
+// Errors of one camera's calibration against the truth, in the estimate's tangent
+// (T_true = T_est Exp(delta)).
+struct CameraCalibrationError {
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();     // [rad]
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // [m]
+  double time_offset = 0.0;                               // [s]
+};
+CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate);
+
+// A table of every camera's extrinsic rotation, translation and time offset: the initial
+// guess's error, the estimate's error and the estimate's 3-sigma bound when `truth` is given;
+// otherwise the estimate and its 3-sigma.
+std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig* truth);
+
+}  // namespace mvis

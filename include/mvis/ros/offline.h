@@ -1,0 +1,43 @@
+// Running the estimator over a bag as fast as possible, without a ROS master (mvis_offline,
+// scripts/demo, scripts/bench).
+//
+// Every message of the rig's topics is read in bag order: sensor_msgs/Imu of each inertial
+// sensor, sensor_msgs/Image of each camera (through the tag front end) or, when a camera has
+// none, mvis/TagDetectionArray on `<camera topic>/tag_detections`. Bad messages are dropped and
+// counted, as in the nodelet.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mvis/common/status.h"
+#include "mvis/estimator/estimator.h"
+#include "mvis/frontend/tag_frontend.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+struct OfflineOptions {
+  EstimatorOptions estimator;
+  TagFrontendOptions frontend;
+  // Called now and then with the share of the bag done [0, 1] and the bag time covered [s].
+  std::function<void(double share, double bag_seconds)> progress;
+};
+
+struct OfflineResult {
+  Rig calibration;                         // with standard deviations
+  std::vector<EstimatorState> trajectory;  // every window state
+  double bag_seconds = 0.0;                // span of the messages used
+  double wall_seconds = 0.0;               // time taken
+  std::vector<double> update_ms;           // per estimator update (solve and bookkeeping)
+  std::vector<double> frontend_ms;         // per image (detection)
+  long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
+  EstimatorCounters counters;
+  std::string status;  // the estimator's last word
+};
+
+StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_path,
+                                   const OfflineOptions& options);
+
+}  // namespace mvis
