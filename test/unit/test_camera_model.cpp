@@ -141,3 +141,42 @@ TEST(CameraModel, AutodiffMatchesNumericDerivatives) {
 
 }  // namespace
 }  // namespace mvis
+
+namespace mvis {
+namespace {
+
+// The estimator's analytic projection Jacobians equal the automatic ones, in the point and in
+// all eight intrinsics, for both models, on and off the optical axis.
+TEST(CameraModel, AnalyticJacobiansMatchAutodiff) {
+  using Jet = ceres::Jet<double, 11>;
+  for (const Camera& cam : {radtanCamera(), equidistantCamera()}) {
+    const double k[8] = {cam.intrinsics[0],        cam.intrinsics[1],
+                         cam.intrinsics[2],        cam.intrinsics[3],
+                         cam.distortion_coeffs[0], cam.distortion_coeffs[1],
+                         cam.distortion_coeffs[2], cam.distortion_coeffs[3]};
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.3, -0.2, 1.5),
+                                     Eigen::Vector3d(-0.9, 0.7, 1.1), Eigen::Vector3d(0, 0, 2)}) {
+      Eigen::Matrix<Jet, 3, 1> pj;
+      Eigen::Matrix<Jet, 4, 1> kj, dj;
+      for (int i = 0; i < 3; ++i) pj[i] = Jet(p[i], i);
+      for (int i = 0; i < 4; ++i) {
+        kj[i] = Jet(k[i], 3 + i);
+        dj[i] = Jet(k[4 + i], 7 + i);
+      }
+      const Eigen::Matrix<Jet, 2, 1> auto_uv = projectPoint<Jet>(cam.distortion_model, kj, dj, pj);
+      Eigen::Vector2d uv;
+      Eigen::Matrix<double, 2, 3> J_p;
+      Eigen::Matrix<double, 2, 8> J_k;
+      projectWithJacobians(cam.distortion_model, k, p, &uv, &J_p, &J_k);
+      for (int r = 0; r < 2; ++r) {
+        // Same arithmetic reordered: agreement to round-off (values up to ~1e3).
+        EXPECT_NEAR(uv[r], auto_uv[r].a, 1e-9);
+        for (int i = 0; i < 3; ++i) EXPECT_NEAR(J_p(r, i), auto_uv[r].v[i], 1e-7) << r << i;
+        for (int i = 0; i < 8; ++i) EXPECT_NEAR(J_k(r, i), auto_uv[r].v[3 + i], 1e-7) << r << i;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mvis

@@ -73,6 +73,13 @@ Eigen::Matrix<T, 2, 1> projectPoint(DistortionModel model, const Eigen::Matrix<T
   return Eigen::Matrix<T, 2, 1>(k[0] * d.x() + k[2], k[1] * d.y() + k[3]);
 }
 
+// The pixel of p_C (z > 0) with its analytic Jacobians in p_C (2x3) and in the intrinsics
+// [fu fv pu pv d0 d1 d2 d3] (2x8), for the estimator's hot loop (derivatives in the .cpp).
+void projectWithJacobians(DistortionModel model, const double* intrinsics,
+                          const Eigen::Vector3d& p_C, Eigen::Vector2d* uv,
+                          Eigen::Matrix<double, 2, 3>* J_point,
+                          Eigen::Matrix<double, 2, 8>* J_intrinsics);
+
 // The camera's projection of p_C [m] to pixels; false when p_C is not in front of the camera.
 bool projectToPixel(const Camera& camera, const Eigen::Vector3d& p_C, Eigen::Vector2d* uv);
 

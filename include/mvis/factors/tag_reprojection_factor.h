@@ -35,8 +35,8 @@
 // Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame by forward-mode
 // automatic differentiation in the tangent directions of the blocks (pose and extrinsic
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
-// coordinates; t_d), then chained per corner with the projection's Jacobian in p_C and in the
-// intrinsics (also forward mode). Pose-block Jacobians are written in the tangent lift
+// coordinates; t_d), then chained per corner with the projection's analytic Jacobian in p_C and
+// in the intrinsics (projectWithJacobians). Pose-block Jacobians are written in the tangent lift
 // convention of state_blocks.h.
 #pragma once
 

@@ -14,7 +14,6 @@ namespace {
 constexpr int kStageDim = 25;
 constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
 using Jet19 = ceres::Jet<double, kStageDim>;
-using Jet11 = ceres::Jet<double, 11>;
 
 template <typename T>
 using Mat3 = Eigen::Matrix<T, 3, 3>;
@@ -199,28 +198,22 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
     }
   }
   const double* intrinsics = parameters[n_blocks];
-  Eigen::Matrix<Jet11, 4, 1> k, d;
-  for (int i = 0; i < 4; ++i) {
-    k[i] = Jet11(intrinsics[i], 3 + i);
-    d[i] = Jet11(intrinsics[4 + i], 7 + i);
-  }
   const double inv_sigma = 1.0 / sigma_;
+  Eigen::Vector2d uv;
+  Eigen::Matrix<double, 2, 3> J_pc;
+  Eigen::Matrix<double, 2, 8> J_k;
   for (std::size_t c = 0; c < corners_.size(); ++c) {
     const Eigen::Vector3d& p_G = corners_[c].p_G;
     const Eigen::Vector3d pc = R_val * p_G + t_val;
     if (!(pc[2] > 1e-6)) return false;  // behind the camera: Ceres rejects the step
-    Vec3<Jet11> pc11;
-    for (int i = 0; i < 3; ++i) pc11[i] = Jet11(pc[i], i);
-    const Eigen::Matrix<Jet11, 2, 1> uv = projectPoint<Jet11>(model_, k, d, pc11);
+    projectWithJacobians(model_, intrinsics, pc, &uv, &J_pc, &J_k);
     const int row = 2 * static_cast<int>(c);
-    for (int i = 0; i < 2; ++i) residuals[row + i] = (uv[i].a - corners_[c].uv[i]) * inv_sigma;
+    for (int i = 0; i < 2; ++i) residuals[row + i] = (uv[i] - corners_[c].uv[i]) * inv_sigma;
     if (jacobians == nullptr) continue;
 
-    Eigen::Matrix<double, 2, 3> J_pc;
-    for (int i = 0; i < 2; ++i) J_pc.row(i) = uv[i].v.head<3>().transpose() * inv_sigma;
     const Eigen::Matrix<double, 3, kStageDim> D =
         dR[0] * p_G.x() + dR[1] * p_G.y() + dR[2] * p_G.z() + dT;
-    const Eigen::Matrix<double, 2, kStageDim> J = J_pc * D;
+    const Eigen::Matrix<double, 2, kStageDim> J = (J_pc * inv_sigma) * D;
     for (int i = 0; i < 2; ++i) {
       const int r = row + i;
       for (int b = 0; b < n_blocks; ++b) {
@@ -232,7 +225,7 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
       }
       if (jacobians[n_blocks] != nullptr) {
         double* out = jacobians[n_blocks] + 8 * r;
-        for (int j = 0; j < 8; ++j) out[j] = uv[i].v[3 + j] * inv_sigma;
+        for (int j = 0; j < 8; ++j) out[j] = J_k(i, j) * inv_sigma;
       }
     }
   }
