@@ -46,3 +46,18 @@ mvis_core_test(test_imu_factor test/unit/test_imu_factor.cpp)
 mvis_core_test(test_tag_reprojection_factor test/unit/test_tag_reprojection_factor.cpp)
 mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
 mvis_core_test(test_estimator test/unit/test_estimator.cpp)
+
+# A simulated VI-Rig bag for the replay rostest, made at build time.
+set(MVIS_REPLAY_DATA ${CMAKE_BINARY_DIR}/test_data/replay)
+add_custom_command(OUTPUT ${MVIS_REPLAY_DATA}/sim.bag
+  COMMAND ${CMAKE_COMMAND} -E remove_directory ${MVIS_REPLAY_DATA}
+  COMMAND mvis_simulate --rig ${PROJECT_SOURCE_DIR}/config/sim_vi_rig
+          --sim ${PROJECT_SOURCE_DIR}/test/ros/replay_sim.yaml --output ${MVIS_REPLAY_DATA}
+          --detections
+  DEPENDS mvis_simulate ${PROJECT_SOURCE_DIR}/test/ros/replay_sim.yaml
+          ${PROJECT_SOURCE_DIR}/config/sim_vi_rig/kalibr_imu_chain.yaml
+          ${PROJECT_SOURCE_DIR}/config/sim_vi_rig/kalibr_imucam_chain.yaml)
+add_custom_target(mvis_replay_data DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
+add_dependencies(tests mvis_replay_data)
+add_rostest(test/ros/replay.test ARGS data:=${MVIS_REPLAY_DATA}
+  DEPENDENCIES mvis_ros mvis_node mvis_replay_data)

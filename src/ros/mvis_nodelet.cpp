@@ -2,23 +2,42 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/image_encodings.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "mvis/frontend/debug_image.h"
 #include "mvis/rig/rig_io.h"
+#include "mvis/rig/trajectory_io.h"
 #include "mvis/ros/conversions.h"
 
 namespace mvis {
 namespace {
 
-bool finite(const geometry_msgs::Vector3& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+geometry_msgs::TransformStamped stampedTransform(const SE3& T, const ros::Time& stamp,
+                                                 const std::string& parent,
+                                                 const std::string& child) {
+  geometry_msgs::TransformStamped out;
+  out.header.stamp = stamp;
+  out.header.frame_id = parent;
+  out.child_frame_id = child;
+  out.transform = ros_conversions::toTransformMsg(T);
+  return out;
+}
+
+// The gravity-aligned world frame {W} (z up) over the board frame {G} the estimator works in:
+// the smallest rotation taking gravity in {G} to -z, origin at the board's.
+SE3 worldFromBoard(const Eigen::Vector3d& gravity_G) {
+  if (!(gravity_G.norm() > 0.0)) return SE3();
+  return SE3(Eigen::Quaterniond::FromTwoVectors(gravity_G, Eigen::Vector3d(0, 0, -1)),
+             Eigen::Vector3d::Zero());
 }
 
 diagnostic_msgs::DiagnosticStatus makeStatus(std::uint8_t level, const std::string& name,
@@ -74,6 +93,32 @@ void MvisNodelet::onInit() {
   }
   frontend_ = std::move(frontend).value();
 
+  if (rig_.target) {
+    EstimatorOptions eo;
+    eo.window_size = options_.window_size;
+    eo.pixel_sigma_px = options_.pixel_sigma;
+    eo.estimate_extrinsics = options_.estimate_extrinsics;
+    eo.estimate_time_offsets = options_.estimate_time_offsets;
+    eo.max_iterations = options_.max_iterations;
+    eo.threads = options_.solver_threads;
+    auto estimator = Estimator::create(rig_, eo);
+    if (!estimator.ok()) {
+      stayDown(estimator.status().message());
+      return;
+    }
+    estimator_ = std::move(estimator).value();
+    estimator_->setUpdateCallback([this](const EstimatorUpdate& u) { onUpdate(u); });
+  } else {
+    NODELET_WARN_STREAM("mvis: " << options_.config_dir
+                                 << " has no aprilgrid.yaml: the estimator needs a known board "
+                                    "(tag corners as landmarks are not supported yet); only the "
+                                    "front end runs");
+  }
+  tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  path_.header.frame_id = options_.world_frame;
+  save_service_ = pnh.advertiseService("save_calibration", &MvisNodelet::onSaveCalibration, this);
+  reset_service_ = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
+
   subscribeSensors();
   diagnostics_timer_ =
       nh.createWallTimer(ros::WallDuration(options_.diagnostics_period_s),
@@ -120,17 +165,30 @@ void MvisNodelet::subscribeSensors() {
 
 void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg) {
   const auto& s = rig_.inertial[sensor];
-  const bool accel_ok = s.type == InertialType::kGyroscope || finite(msg->linear_acceleration);
-  std::lock_guard<std::mutex> lock(mutex_);
-  SensorTraffic& t = traffic_[sensor];
-  t.last_arrival = ros::WallTime::now();
-  if (!finite(msg->angular_velocity) || !accel_ok) {
-    ++t.rejected;
-    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << s.name << " (" << s.rostopic
-                                               << "): dropped a sample with NaN or inf values");
-    return;
+  ImuMeasurement reading;
+  std::string why;
+  const bool usable =
+      ros_conversions::toImuMeasurement(*msg, s.type == InertialType::kGyroscope, &reading, &why);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    SensorTraffic& t = traffic_[sensor];
+    t.last_arrival = ros::WallTime::now();
+    if (!usable) {
+      ++t.rejected;
+      NODELET_WARN_STREAM_THROTTLE(
+          5.0, "mvis: " << s.name << " (" << s.rostopic << "): dropped " << why);
+      return;
+    }
+    ++t.received;
   }
-  ++t.received;
+  if (!estimator_) return;
+  std::lock_guard<std::mutex> lock(estimator_mutex_);
+  if (sensor == 0) last_gyro_ = reading.gyro;
+  const Status status = estimator_->addImu(sensor, reading);
+  if (!status.ok()) {
+    estimator_error_ = status.message();
+    NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << status.message());
+  }
 }
 
 void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg) {
@@ -174,6 +232,14 @@ void MvisNodelet::rejectCameraMessage(std::size_t camera, const std::string& why
 }
 
 void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result) {
+  if (estimator_) {
+    std::lock_guard<std::mutex> lock(estimator_mutex_);
+    const Status status = estimator_->addTagFrame(result.frame);
+    if (!status.ok()) {
+      estimator_error_ = status.message();
+      NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << status.message());
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
   t.last_arrival = ros::WallTime::now();
@@ -198,6 +264,33 @@ void MvisNodelet::publishDiagnostics() {
   }
   array.status.push_back(makeStatus(diagnostic_msgs::DiagnosticStatus::OK, "configuration",
                                     "loaded " + options_.config_dir));
+  if (estimator_) {
+    std::lock_guard<std::mutex> lock(estimator_mutex_);
+    const bool running = estimator_->initialized();
+    auto status = makeStatus(
+        running ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
+        "estimator", estimator_->status());
+    auto add = [&status](const std::string& key, const std::string& value) {
+      diagnostic_msgs::KeyValue kv;
+      kv.key = key;
+      kv.value = value;
+      status.values.push_back(kv);
+    };
+    if (have_update_) {
+      add("solve_ms", std::to_string(last_update_.solve.total_s * 1e3));
+      add("iterations", std::to_string(last_update_.solve.iterations));
+      add("window_states", std::to_string(last_update_.solve.states));
+      add("window_frames", std::to_string(last_update_.solve.frames));
+      add("window_corners", std::to_string(last_update_.solve.corners));
+    }
+    const EstimatorCounters& c = estimator_->counters();
+    add("solves", std::to_string(c.solves));
+    add("resets", std::to_string(c.resets));
+    add("frames_dropped", std::to_string(c.frames_too_old + c.frames_out_of_order));
+    add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
+    if (!estimator_error_.empty()) add("last_problem", estimator_error_);
+    array.status.push_back(status);
+  }
   const ros::WallTime now = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
   for (SensorTraffic& t : traffic_) {
@@ -236,6 +329,136 @@ void MvisNodelet::publishDiagnostics() {
     array.status.push_back(status);
   }
   diagnostics_pub_.publish(array);
+}
+
+MvisNodelet::~MvisNodelet() {
+  if (!estimator_) return;
+  std::lock_guard<std::mutex> lock(estimator_mutex_);
+  if (!estimator_->initialized() && estimator_->trajectory().empty()) return;
+  const std::string problem = saveResult();
+  if (!problem.empty())
+    std::fprintf(stderr, "mvis: could not write the result: %s\n", problem.c_str());
+}
+
+void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
+  last_update_ = u;
+  have_update_ = true;
+  if (u.pose_covariance.allFinite()) last_pose_covariance_ = u.pose_covariance;
+  const ros::Time stamp = ros_conversions::toRosTime(u.state.stamp_ns);
+  const std::string board = options_.frame_prefix + "board";
+  const std::string base = options_.frame_prefix + rig_.inertial[0].name;
+  const SE3 T_W_G = worldFromBoard(u.gravity_G);
+  const SE3 T_W_I = T_W_G * u.state.T_G_I;
+
+  nav_msgs::Odometry odom;
+  odom.header.stamp = stamp;
+  odom.header.frame_id = options_.world_frame;
+  odom.child_frame_id = base;
+  odom.pose.pose.position.x = T_W_I.p.x();
+  odom.pose.pose.position.y = T_W_I.p.y();
+  odom.pose.pose.position.z = T_W_I.p.z();
+  odom.pose.pose.orientation.x = T_W_I.q.x();
+  odom.pose.pose.orientation.y = T_W_I.q.y();
+  odom.pose.pose.orientation.z = T_W_I.q.z();
+  odom.pose.pose.orientation.w = T_W_I.q.w();
+  // Covariance in ROS order (x y z, then rotation about x y z), all in {W}: the estimator's
+  // [dtheta (body), dp (board)] rotated.
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  A.block<3, 3>(0, 3) = T_W_G.rotation();
+  A.block<3, 3>(3, 0) = T_W_I.rotation();
+  const Eigen::Matrix<double, 6, 6> C = A * last_pose_covariance_ * A.transpose();
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) odom.pose.covariance[6 * r + c] = C(r, c);
+  }
+  const Eigen::Vector3d v_I = T_W_I.q.conjugate() * (T_W_G.q * u.state.v_G);
+  const Eigen::Vector3d w_I = last_gyro_ - u.state.bias_gyro;
+  odom.twist.twist.linear.x = v_I.x();
+  odom.twist.twist.linear.y = v_I.y();
+  odom.twist.twist.linear.z = v_I.z();
+  odom.twist.twist.angular.x = w_I.x();
+  odom.twist.twist.angular.y = w_I.y();
+  odom.twist.twist.angular.z = w_I.z();
+  odometry_pub_.publish(odom);
+
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  transforms.push_back(stampedTransform(T_W_G, stamp, options_.world_frame, board));
+  transforms.push_back(stampedTransform(u.state.T_G_I, stamp, board, base));
+  const Rig calibration = estimator_->calibration();
+  for (const auto& cam : calibration.cameras) {
+    transforms.push_back(
+        stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
+  }
+  tf_broadcaster_->sendTransform(transforms);
+
+  geometry_msgs::PoseStamped pose;
+  pose.header = odom.header;
+  pose.pose = odom.pose.pose;
+  path_.header.stamp = stamp;
+  path_.poses.push_back(pose);
+  if (path_.poses.size() > 20000)
+    path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
+  if (path_pub_.getNumSubscribers() > 0 || path_.poses.size() % 30 == 0) path_pub_.publish(path_);
+  if (u.calibration_covariance_updated) publishCalibration();
+}
+
+void MvisNodelet::publishCalibration() {
+  mvis::Calibration msg =
+      ros_conversions::toCalibrationMsg(estimator_->calibration(), options_.frame_prefix);
+  msg.header.stamp = ros::Time::now();
+  calibration_pub_.publish(msg);
+}
+
+std::string MvisNodelet::saveResult() {
+  std::string dir = options_.result_dir;
+  if (dir.empty()) {
+    const char* ros_home = std::getenv("ROS_HOME");
+    const char* home = std::getenv("HOME");
+    dir = ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros";
+    dir += "/mvis_result";
+  }
+  estimator_->computeCovariance();
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  Status status = saveRig(estimator_->calibration(), dir);
+  if (status.ok()) {
+    std::vector<StampedPose> poses;
+    for (const auto& s : estimator_->trajectory()) poses.emplace_back(s.stamp_ns, s.T_G_I);
+    status = writeTumTrajectory(dir + "/trajectory.tum", poses);
+  }
+  if (!status.ok()) return status.message();
+  NODELET_INFO_STREAM("mvis: wrote the calibration and trajectory.tum to " << dir);
+  return "";
+}
+
+bool MvisNodelet::onSaveCalibration(std_srvs::Trigger::Request&,
+                                    std_srvs::Trigger::Response& response) {
+  if (!estimator_) {
+    response.success = false;
+    response.message = "no estimator is running (see the log)";
+    return true;
+  }
+  std::lock_guard<std::mutex> lock(estimator_mutex_);
+  const std::string problem = saveResult();
+  response.success = problem.empty();
+  response.message = problem.empty() ? "saved" : problem;
+  if (response.success) publishCalibration();
+  return true;
+}
+
+bool MvisNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  if (!estimator_) {
+    response.success = false;
+    response.message = "no estimator is running (see the log)";
+    return true;
+  }
+  std::lock_guard<std::mutex> lock(estimator_mutex_);
+  estimator_->reset();
+  path_.poses.clear();
+  have_update_ = false;
+  NODELET_INFO("mvis: reset on request; the calibration estimate is kept");
+  response.success = true;
+  response.message = "reset; the calibration estimate is kept";
+  return true;
 }
 
 }  // namespace mvis

@@ -14,6 +14,13 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("tag_refine_corners", o.tag_refine_corners, o.tag_refine_corners);
   nh.param("tag_max_hamming", o.tag_max_hamming, o.tag_max_hamming);
   nh.param("tag_threads", o.tag_threads, o.tag_threads);
+  nh.param("window_size", o.window_size, o.window_size);
+  nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
+  nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
+  nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
+  nh.param("max_iterations", o.max_iterations, o.max_iterations);
+  nh.param("solver_threads", o.solver_threads, o.solver_threads);
+  nh.param("result_dir", o.result_dir, o.result_dir);
   return o;
 }
 
@@ -34,6 +41,10 @@ std::string NodeletOptions::validate() const {
     return "parameter ~tag_max_hamming must be 0, 1 or 2";
   }
   if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
+  if (window_size < 3) return "parameter ~window_size must be >= 3";
+  if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
+  if (max_iterations < 1) return "parameter ~max_iterations must be >= 1";
+  if (solver_threads < 1) return "parameter ~solver_threads must be >= 1";
   return "";
 }
 

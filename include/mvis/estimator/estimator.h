@@ -87,8 +87,11 @@ struct SolveSummary {
 
 struct EstimatorUpdate {
   EstimatorState state;  // the newest window state
-  Eigen::Matrix<double, 6, 6> pose_covariance =
-      Eigen::Matrix<double, 6, 6>::Zero();  // NaN: unknown
+  // Covariance of [dtheta, dp] of the newest pose (right perturbation) when it was computed
+  // with this update (every covariance_every solves), NaN otherwise.
+  Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  bool calibration_covariance_updated = false;  // calibration() has new standard deviations
+  Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // in the world (board) frame [m/s^2]
   SolveSummary solve;
 };
 

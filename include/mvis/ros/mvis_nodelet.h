@@ -4,16 +4,20 @@
 
 #include <image_transport/image_transport.h>
 #include <mvis/TagDetectionArray.h>
+#include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/transform_broadcaster.h>
 
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "mvis/estimator/estimator.h"
 #include "mvis/frontend/tag_frontend.h"
 #include "mvis/rig/rig.h"
 #include "mvis/ros/nodelet_options.h"
@@ -23,6 +27,8 @@ namespace mvis {
 class MvisNodelet : public nodelet::Nodelet {
  public:
   MvisNodelet() = default;
+  // Writes the result directory when the estimator has run.
+  ~MvisNodelet() override;
 
  private:
   // What arrives from one sensor: counts and stamps for diagnostics.
@@ -48,6 +54,13 @@ class MvisNodelet : public nodelet::Nodelet {
   void onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg);
   void onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg);
   void publishDiagnostics();
+  // Called by the estimator (under estimator_mutex_) after each solve.
+  void onUpdate(const EstimatorUpdate& update);
+  void publishCalibration();
+  // Writes the result directory; empty on success, else what went wrong.
+  std::string saveResult();
+  bool onSaveCalibration(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
+  bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
   // Counts a camera message that could not be used and says why (throttled).
   void rejectCameraMessage(std::size_t camera, const std::string& why);
   // Counts the front end's result for a camera message and warns about dropped tags.
@@ -61,6 +74,16 @@ class MvisNodelet : public nodelet::Nodelet {
   std::vector<SensorTraffic> traffic_;  // inertial sensors first, then cameras
 
   std::unique_ptr<TagFrontend> frontend_;
+  std::mutex estimator_mutex_;  // guards estimator_ and everything below it
+  std::unique_ptr<Estimator> estimator_;
+  std::string estimator_error_;  // the estimator's last complaint, for diagnostics
+  EstimatorUpdate last_update_;
+  bool have_update_ = false;
+  Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
+  nav_msgs::Path path_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
+  ros::ServiceServer save_service_, reset_service_;
   std::unique_ptr<image_transport::ImageTransport> image_transport_;
   std::unique_ptr<image_transport::ImageTransport> private_image_transport_;
   std::vector<image_transport::Publisher> debug_image_pubs_;  // per camera, lazy

@@ -617,10 +617,14 @@ struct Estimator::Impl {
     EstimatorUpdate u;
     u.solve = summary;
     u.state = states.back()->toEstimate();
+    u.gravity_G = Eigen::Vector3d(gravity);
     u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
     if (options.covariance_every > 0 && solves_since_covariance >= options.covariance_every) {
       Eigen::Matrix<double, 6, 6> pose_cov;
-      if (covariance(&pose_cov).ok()) u.pose_covariance = pose_cov;
+      if (covariance(&pose_cov).ok()) {
+        u.pose_covariance = pose_cov;
+        u.calibration_covariance_updated = true;
+      }
     }
     u.solve.total_s = seconds(start, Clock::now());
     if (callback) callback(u);
