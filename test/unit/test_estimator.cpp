@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/evaluation.h"
@@ -154,6 +155,130 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
   // Measured 4.4 mm and 0.8 mm (seed 3); the bounds leave room for other seeds' convergence.
   EXPECT_LT(ate, 0.008);
   EXPECT_LT(ate_converged, 0.002);
+}
+
+}  // namespace
+}  // namespace mvis
+
+namespace mvis {
+namespace {
+
+// Max errors over a rig's cameras.
+struct WorstErrors {
+  double rotation_deg = 0.0, translation_mm = 0.0, time_offset_ms = 0.0;
+};
+WorstErrors worst(const Rig& truth, const Rig& estimate) {
+  WorstErrors w;
+  for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
+    const CameraErrors e = errors(truth.cameras[c], estimate.cameras[c]);
+    w.rotation_deg = std::max(w.rotation_deg, e.rotation_deg);
+    w.translation_mm = std::max(w.translation_mm, e.translation_mm);
+    w.time_offset_ms = std::max(w.time_offset_ms, e.time_offset_ms);
+  }
+  return w;
+}
+
+TEST(Estimator, DropsAndCountsBadInputAndKeepsCalibrating) {
+  const SimRun run = simulate("sim_small_rig", 10.0, 11);
+  auto created = Estimator::create(run.guess, EstimatorOptions{});
+  ASSERT_TRUE(created.ok());
+  Estimator& estimator = *created.value();
+  const TimeNs t0 = run.truth_trajectory.front().first;
+  long duplicates_imu = 0, nans = 0, duplicates_frames = 0, gap_skipped = 0;
+  std::size_t imu_count = 0, frame_count = 0;
+  for (const auto& e : run.data.events()) {
+    if (e.kind == 0) {
+      const auto& [sensor, s] = run.data.imu_samples[e.index];
+      if (sensor != 0) continue;
+      // A 0.1 s hole in the base IMU's stream.
+      if (s.stamp_ns >= t0 + fromSeconds(4.0) && s.stamp_ns < t0 + fromSeconds(4.1)) {
+        ++gap_skipped;
+        continue;
+      }
+      const ImuMeasurement m{s.stamp_ns, s.gyro, s.accel};
+      if (++imu_count % 101 == 0) {  // a NaN reading just before this one
+        ImuMeasurement bad = m;
+        bad.stamp_ns -= 1000;
+        bad.accel.x() = std::numeric_limits<double>::quiet_NaN();
+        EXPECT_FALSE(estimator.addImu(0, bad).ok());
+        ++nans;
+      }
+      const Status added = estimator.addImu(0, m);
+      // The first reading after the hole reports it; every other good reading is taken.
+      EXPECT_EQ(added.ok(), s.stamp_ns != t0 + fromSeconds(4.1)) << added.message();
+      if (imu_count % 97 == 0) {  // the same reading again
+        EXPECT_FALSE(estimator.addImu(0, m).ok());
+        ++duplicates_imu;
+      }
+    } else {
+      const TagFrame& f = run.data.frames[e.index];
+      EXPECT_TRUE(estimator.addTagFrame(f).ok());
+      if (++frame_count % 13 == 0) {
+        EXPECT_FALSE(estimator.addTagFrame(f).ok());
+        ++duplicates_frames;
+      }
+    }
+  }
+  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  EXPECT_GT(gap_skipped, 10);
+  EXPECT_EQ(estimator.counters().imu_non_finite, nans);
+  EXPECT_EQ(estimator.counters().imu_out_of_order, duplicates_imu);
+  EXPECT_EQ(estimator.counters().frames_out_of_order, duplicates_frames);
+  EXPECT_EQ(estimator.counters().resets, 0);
+  EXPECT_EQ(estimator.counters().imu_gaps, 1);
+  ASSERT_TRUE(estimator.computeCovariance().ok());
+  const Rig estimate = estimator.calibration();
+  const WorstErrors w = worst(run.truth, estimate);
+  const CameraErrors e = errors(run.truth.cameras[0], estimate.cameras[0]);
+  std::printf(
+      "small rig with bad input: %.4f deg, %.3f mm, %.4f ms; error/sigma rot %.2f pos "
+      "%.2f dt %.2f\n",
+      w.rotation_deg, w.translation_mm, w.time_offset_ms, e.rotation_sigma_ratio.maxCoeff(),
+      e.translation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio);
+  // One small camera (376x240) for 10 s: errors of a few mm are what its uncertainty allows;
+  // the test is that bad input neither stops nor biases it: every error inside 3 sigma.
+  EXPECT_LT(e.rotation_sigma_ratio.maxCoeff(), 3.0);
+  EXPECT_LT(e.translation_sigma_ratio.maxCoeff(), 3.0);
+  EXPECT_LT(e.time_offset_sigma_ratio, 3.0);
+  EXPECT_LT(w.rotation_deg, 0.2);
+  EXPECT_LT(w.translation_mm, 5.0);
+  EXPECT_LT(w.time_offset_ms, 0.5);
+}
+
+TEST(Estimator, RestartedBagResetsAndRecovers) {
+  const SimRun run = simulate("sim_small_rig", 10.0, 12);
+  auto created = Estimator::create(run.guess, EstimatorOptions{});
+  ASSERT_TRUE(created.ok());
+  Estimator& estimator = *created.value();
+  const TimeNs t0 = run.truth_trajectory.front().first;
+  const auto events = run.data.events();
+  bool reset_said = false;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const auto& e : events) {
+      if (e.kind == 0) {
+        const auto& [sensor, s] = run.data.imu_samples[e.index];
+        if (pass == 0 && s.stamp_ns > t0 + fromSeconds(4.0)) break;  // the first play stops
+        const Status st = estimator.addImu(sensor, {s.stamp_ns, s.gyro, s.accel});
+        if (!st.ok() && st.message().find("reset") != std::string::npos) reset_said = true;
+      } else {
+        estimator.addTagFrame(run.data.frames[e.index]);
+      }
+    }
+    if (pass == 0) {
+      ASSERT_TRUE(estimator.initialized());
+    }
+  }
+  EXPECT_TRUE(reset_said);
+  EXPECT_EQ(estimator.counters().resets, 1);
+  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  const auto trajectory = estimator.trajectory();
+  ASSERT_FALSE(trajectory.empty());
+  // After the reset the trajectory starts over from the bag's beginning.
+  EXPECT_LT(trajectory.front().stamp_ns, t0 + fromSeconds(1.0));
+  const WorstErrors w = worst(run.truth, estimator.calibration());
+  EXPECT_LT(w.rotation_deg, 0.2);
+  EXPECT_LT(w.translation_mm, 5.0);
+  EXPECT_LT(w.time_offset_ms, 0.5);
 }
 
 }  // namespace

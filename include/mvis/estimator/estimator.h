@@ -90,7 +90,7 @@ struct EstimatorUpdate {
   // Covariance of [dtheta, dp] of the newest pose (right perturbation) when it was computed
   // with this update (every covariance_every solves), NaN otherwise.
   Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
-  bool calibration_covariance_updated = false;  // calibration() has new standard deviations
+  bool calibration_covariance_updated = false;          // calibration() has new standard deviations
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // in the world (board) frame [m/s^2]
   SolveSummary solve;
 };
@@ -99,9 +99,11 @@ struct EstimatorUpdate {
 struct EstimatorCounters {
   long imu_out_of_order = 0;
   long imu_non_finite = 0;
+  long imu_gaps = 0;  // intervals longer than 2.5 nominal periods
   long frames_too_few_tags = 0;
   long frames_too_old = 0;  // before the window
   long frames_out_of_order = 0;
+  long frames_in_imu_gap = 0;  // their pose would rest on made-up readings
   long resets = 0;
   long solves = 0;
 };

@@ -182,9 +182,20 @@ struct Estimator::Impl {
       ++counters.imu_out_of_order;
       return Status::Error(rig.inertial[0].name + ": reading out of order or repeated, dropped");
     }
+    const bool gap = last_imu != std::numeric_limits<TimeNs>::min() && maxImuInterval() > 0.0 &&
+                     toSeconds(m.stamp_ns - last_imu) > maxImuInterval();
+    const double gap_s = gap ? toSeconds(m.stamp_ns - last_imu) : 0.0;
     last_imu = m.stamp_ns;
     imu.push_back(m);
+    if (imu.size() > 1) imu.back().span_ns = m.stamp_ns - imu[imu.size() - 2].stamp_ns;
     process();
+    if (gap) {
+      ++counters.imu_gaps;
+      std::ostringstream s;
+      s << rig.inertial[0].name << ": no reading for " << gap_s
+        << " s; integrated across the gap with inflated noise";
+      return Status::Error(s.str());
+    }
     return Status::Ok();
   }
 
@@ -263,9 +274,25 @@ struct Estimator::Impl {
 
   std::shared_ptr<ImuPreintegration> preintegrate(TimeNs a, TimeNs b, const Eigen::Vector3d& bg,
                                                   const Eigen::Vector3d& ba) const {
-    auto pre = std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba);
+    auto pre = std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
     for (const auto& m : imuBetween(a, b)) pre->add(m);
     return pre;
+  }
+
+  // Whether t falls between two readings further apart than maxImuInterval().
+  bool insideImuGap(TimeNs t) const {
+    const double max_interval = maxImuInterval();
+    if (max_interval <= 0.0 || imu.empty()) return false;
+    auto after = std::lower_bound(imu.begin(), imu.end(), t,
+                                  [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
+    if (after == imu.end() || after == imu.begin()) return false;
+    return toSeconds(after->stamp_ns - std::prev(after)->stamp_ns) > max_interval;
+  }
+
+  // Readings further apart than this are a gap (2.5 nominal periods).
+  double maxImuInterval() const {
+    const double rate = rig.inertial[0].update_rate;
+    return rate > 0.0 ? 2.5 / rate : 0.0;
   }
 
   Eigen::Vector3d gyroAt(TimeNs t) const { return imuBetween(t, t).front().gyro; }
@@ -326,6 +353,11 @@ struct Estimator::Impl {
     const DistortionModel model = rig.cameras[c].distortion_model;
     State* sk = states[k].get();
     *owner = sk;
+    // The frame's pose comes from the readings around it: inside a gap they are made up.
+    if (insideImuGap(frame.stamp_ns + timeOffsetNs(c))) {
+      ++counters.frames_in_imu_gap;
+      return nullptr;
+    }
     if (options.interpolation == FrameInterpolation::kImu) {
       const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
       auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),

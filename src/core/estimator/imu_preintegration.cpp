@@ -1,5 +1,7 @@
 #include "mvis/estimator/imu_preintegration.h"
 
+#include <algorithm>
+
 #include "mvis/common/lie.h"
 
 namespace mvis {
@@ -11,12 +13,13 @@ ImuMeasurement interpolateMeasurement(const ImuMeasurement& a, const ImuMeasurem
   const double s = span > 0 ? static_cast<double>(t - a.stamp_ns) / static_cast<double>(span) : 0.0;
   out.gyro = (1.0 - s) * a.gyro + s * b.gyro;
   out.accel = (1.0 - s) * a.accel + s * b.accel;
+  out.span_ns = span;
   return out;
 }
 
 ImuPreintegration::ImuPreintegration(const ImuNoise& noise, const Eigen::Vector3d& bias_gyro,
-                                     const Eigen::Vector3d& bias_accel)
-    : noise_(noise), bg_(bias_gyro), ba_(bias_accel) {}
+                                     const Eigen::Vector3d& bias_accel, double max_interval_s)
+    : noise_(noise), max_interval_s_(max_interval_s), bg_(bias_gyro), ba_(bias_accel) {}
 
 void ImuPreintegration::reset() {
   dR_.setIdentity();
@@ -82,8 +85,15 @@ void ImuPreintegration::integrate(const ImuMeasurement& from, const ImuMeasureme
   const double sg = noise_.gyroscope_noise_density, sa = noise_.accelerometer_noise_density;
   const double wg = noise_.gyroscope_random_walk, wa = noise_.accelerometer_random_walk;
   Eigen::Matrix<double, 12, 1> q;
-  q << Eigen::Vector3d::Constant(sg * sg / dt), Eigen::Vector3d::Constant(sa * sa / dt),
-      Eigen::Vector3d::Constant(wg * wg * dt), Eigen::Vector3d::Constant(wa * wa * dt);
+  double gap_w = 0.0, gap_a = 0.0;  // see the header
+  const double span = std::max(dt, toSeconds(to.span_ns));
+  if (max_interval_s_ > 0.0 && span > max_interval_s_) {
+    gap_w = (10.0 * span) * (10.0 * span);
+    gap_a = (20.0 * span) * (20.0 * span);
+  }
+  q << Eigen::Vector3d::Constant(sg * sg / dt + gap_w),
+      Eigen::Vector3d::Constant(sa * sa / dt + gap_a), Eigen::Vector3d::Constant(wg * wg * dt),
+      Eigen::Vector3d::Constant(wa * wa * dt);
 
   covariance_ = F * covariance_ * F.transpose() + G * q.asDiagonal() * G.transpose();
   jacobian_ = F * jacobian_;
