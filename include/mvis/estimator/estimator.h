@@ -41,7 +41,7 @@ enum class FrameInterpolation {
 
 struct EstimatorOptions {
   FrameInterpolation interpolation = FrameInterpolation::kImu;
-  int window_size = 10;               // states kept in the window (>= 3)
+  int window_size = 6;                // states kept in the window (>= 3)
   int max_iterations = 10;            // per solve
   double max_solve_time_s = 0.05;     // per solve [s]
   int threads = 1;                    // Ceres threads
