@@ -6,6 +6,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/image_encodings.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <cmath>
 #include <cstdio>
@@ -115,6 +116,8 @@ void MvisNodelet::onInit() {
                                     "front end runs");
   }
   tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  tags_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("tags", 1, true);
+  publishTags();
   path_.header.frame_id = options_.world_frame;
   save_service_ = pnh.advertiseService("save_calibration", &MvisNodelet::onSaveCalibration, this);
   reset_service_ = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
@@ -399,6 +402,51 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
     path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
   if (path_pub_.getNumSubscribers() > 0 || path_.poses.size() % 30 == 0) path_pub_.publish(path_);
   if (u.calibration_covariance_updated) publishCalibration();
+}
+
+void MvisNodelet::publishTags() {
+  if (!rig_.target) return;
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker squares;
+  squares.header.frame_id = options_.frame_prefix + "board";
+  squares.header.stamp = ros::Time::now();
+  squares.ns = "tags";
+  squares.id = 0;
+  squares.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  squares.action = visualization_msgs::Marker::ADD;
+  squares.pose.orientation.w = 1.0;
+  squares.scale.x = squares.scale.y = squares.scale.z = 1.0;
+  squares.color.r = squares.color.g = squares.color.b = 0.1f;
+  squares.color.a = 1.0f;
+  auto point = [](const Eigen::Vector3d& p) {
+    geometry_msgs::Point q;
+    q.x = p.x();
+    q.y = p.y();
+    q.z = p.z();
+    return q;
+  };
+  for (int id = 0; id < rig_.target->numTags(); ++id) {
+    Eigen::Vector3d c[4];
+    for (int k = 0; k < 4; ++k) c[k] = rig_.target->corner(id, k);
+    for (int k : {0, 1, 2, 0, 2, 3}) squares.points.push_back(point(c[k]));
+    visualization_msgs::Marker label;
+    label.header = squares.header;
+    label.ns = "tag_ids";
+    label.id = id;
+    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    label.action = visualization_msgs::Marker::ADD;
+    label.pose.position = point(0.25 * (c[0] + c[1] + c[2] + c[3]));
+    label.pose.position.z += 0.01;
+    label.pose.orientation.w = 1.0;
+    label.scale.z = 0.5 * rig_.target->tag_size;
+    label.color.r = 1.0f;
+    label.color.g = 0.6f;
+    label.color.a = 1.0f;
+    label.text = std::to_string(id);
+    array.markers.push_back(label);
+  }
+  array.markers.push_back(squares);
+  tags_pub_.publish(array);
 }
 
 void MvisNodelet::publishCalibration() {

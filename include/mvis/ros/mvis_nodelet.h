@@ -57,6 +57,8 @@ class MvisNodelet : public nodelet::Nodelet {
   // Called by the estimator (under estimator_mutex_) after each solve.
   void onUpdate(const EstimatorUpdate& update);
   void publishCalibration();
+  // The board's tags as rviz markers in the board frame (latched, once).
+  void publishTags();
   // Writes the result directory; empty on success, else what went wrong.
   std::string saveResult();
   bool onSaveCalibration(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
@@ -92,6 +94,7 @@ class MvisNodelet : public nodelet::Nodelet {
   ros::Publisher odometry_pub_;
   ros::Publisher path_pub_;
   ros::Publisher calibration_pub_;
+  ros::Publisher tags_pub_;
   ros::Publisher diagnostics_pub_;
   ros::WallTimer diagnostics_timer_;
 };
