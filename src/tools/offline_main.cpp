@@ -112,6 +112,9 @@ int main(int argc, char** argv) {
   options.estimator.pixel_sigma_px = pixel_sigma;
   options.estimator.window_size = window;
   options.estimator.max_iterations = iterations;
+  // Offline there is no deadline: without the per-solve time budget, results do not depend on
+  // the machine's load.
+  options.estimator.max_solve_time_s = 1e3;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

@@ -13,7 +13,10 @@
 // The world frame is the board's (aprilgrid.yaml); gravity is estimated in it. Initialization
 // waits for `init_frames` consecutive cam0 frames in which the board gives a pose (PnP), takes
 // velocities from their differences and gravity from the preintegrated readings, then solves
-// that window as a batch. Until then `status()` says what it is waiting for.
+// that window as a batch. Before that, it collects 1.5 s of board poses per camera and matches
+// each camera's angular velocity against the gyroscope within +-0.3 s, so a time offset far from
+// the configured one (a driver stamping on arrival) is corrected before the window starts.
+// Until then `status()` says what it is waiting for.
 //
 // Clocks: IMU readings of imu0 are in the base clock; a frame stamped t_c in camera c's clock
 // happened at t_c + t_d,c (Kalibr's timeshift_cam_imu).
@@ -105,6 +108,7 @@ struct EstimatorCounters {
   long frames_out_of_order = 0;
   long frames_in_imu_gap = 0;  // their pose would rest on made-up readings
   long resets = 0;
+  long clock_corrections = 0;  // time offsets replaced from the gyroscope before initializing
   long solves = 0;
 };
 

@@ -121,10 +121,15 @@ struct Estimator::Impl {
   std::deque<TagFrame> base_frames;
   std::vector<std::deque<TagFrame>> other_frames;  // per camera (index 0 unused)
   std::vector<InitFrame> init;
+  // Before initialization: board rotations R_G_C per camera (camera-clock stamps), for aligning
+  // the clocks with the gyroscope.
+  std::vector<std::deque<std::pair<TimeNs, Eigen::Matrix3d>>> board_rotations;
+  bool clocks_aligned = false;
   std::vector<EstimatorState> past;
   UpdateCallback callback;
   EstimatorCounters counters;
   bool initialized = false;
+  std::string clock_message;  // what the clock alignment changed, if anything
   std::string status_text = "waiting for data";
   TimeNs last_imu = std::numeric_limits<TimeNs>::min();
   std::vector<TimeNs> last_frame;
@@ -144,6 +149,7 @@ struct Estimator::Impl {
     }
     if (options.huber_sigma > 0.0) huber = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
     other_frames.resize(rig.cameras.size());
+    board_rotations.resize(rig.cameras.size());
     last_frame.assign(rig.cameras.size(), std::numeric_limits<TimeNs>::min());
     newProblem();
   }
@@ -211,6 +217,10 @@ struct Estimator::Impl {
       return Status::Error(name + ": frame out of order or repeated, dropped");
     }
     last_frame[frame.camera] = frame.stamp_ns;
+    if (!initialized && frame.camera != 0) {
+      SE3 T_G_C;
+      if (boardPose(frame, &T_G_C)) recordBoardRotation(frame.camera, frame.stamp_ns, T_G_C);
+    }
     if (frame.camera == 0) {
       base_frames.push_back(frame);
     } else {
@@ -254,21 +264,23 @@ struct Estimator::Impl {
     }
   }
 
+  // The reading at t, interpolated between its neighbours (the nearest one outside the buffer).
+  ImuMeasurement readingAt(TimeNs t) const {
+    auto it = std::lower_bound(imu.begin(), imu.end(), t,
+                               [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
+    if (it == imu.end()) return imu.back();
+    if (it->stamp_ns == t || it == imu.begin()) return *it;
+    return interpolateMeasurement(*(it - 1), *it, t);
+  }
+
   // IMU readings over [a, b] with interpolated readings at both ends.
   std::vector<ImuMeasurement> imuBetween(TimeNs a, TimeNs b) const {
     std::vector<ImuMeasurement> out;
-    auto at = [&](TimeNs t) {
-      auto it = std::lower_bound(imu.begin(), imu.end(), t,
-                                 [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
-      if (it == imu.end()) return imu.back();
-      if (it->stamp_ns == t || it == imu.begin()) return *it;
-      return interpolateMeasurement(*(it - 1), *it, t);
-    };
-    out.push_back(at(a));
-    for (const auto& m : imu) {
-      if (m.stamp_ns > a && m.stamp_ns < b) out.push_back(m);
-    }
-    out.push_back(at(b));
+    out.push_back(readingAt(a));
+    auto it = std::upper_bound(imu.begin(), imu.end(), a,
+                               [](TimeNs s, const ImuMeasurement& m) { return s < m.stamp_ns; });
+    for (; it != imu.end() && it->stamp_ns < b; ++it) out.push_back(*it);
+    out.push_back(readingAt(b));
     return out;
   }
 
@@ -295,7 +307,7 @@ struct Estimator::Impl {
     return rate > 0.0 ? 2.5 / rate : 0.0;
   }
 
-  Eigen::Vector3d gyroAt(TimeNs t) const { return imuBetween(t, t).front().gyro; }
+  Eigen::Vector3d gyroAt(TimeNs t) const { return readingAt(t).gyro; }
 
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
                  std::vector<double*> blocks) {
@@ -362,7 +374,7 @@ struct Estimator::Impl {
       const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
       auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),
                               Eigen::Vector3d(sk->speed_bias + 6));
-      const ImuMeasurement at = imuBetween(t_a, t_a).front();
+      const ImuMeasurement at = readingAt(t_a);
       const auto anchor = TagReprojectionFactor::makeAnchor(
           *pre, toSeconds(frame.stamp_ns - t_a), at.gyro, at.accel, angularAcceleration(t_a));
       *blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
@@ -502,6 +514,7 @@ struct Estimator::Impl {
       status_text = "initializing: " + rig.cameras[0].name + " sees too little of the board";
       return;
     }
+    recordBoardRotation(0, frame.stamp_ns, T_G_C);
     // Consecutive frames only: a gap of more than 0.25 s starts over.
     if (!init.empty() && t - init.back().t > fromSeconds(0.25)) init.clear();
     init.push_back({t, T_G_C * poseToSE3(cameras[0]->extrinsic), std::move(frame)});
@@ -509,7 +522,119 @@ struct Estimator::Impl {
     s << "initializing: " << init.size() << " of " << options.init_frames << " "
       << rig.cameras[0].name << " frames with a board pose";
     status_text = s.str();
-    if (static_cast<int>(init.size()) >= options.init_frames) initialize();
+    if (static_cast<int>(init.size()) < options.init_frames) return;
+    if (!clocks_aligned) {
+      const auto& h = board_rotations[0];
+      if (h.size() < 2 || h.back().first - h.front().first < kAlignSpanNs) {
+        status_text += "; collecting 1.5 s of board poses to check the camera clocks";
+        return;
+      }
+      alignClocks();
+      clocks_aligned = true;
+    }
+    // A corrected cam0 clock moves the states later than the readings may reach yet: the next
+    // frame comes when they do.
+    if (init.empty() || imu.back().stamp_ns < init.back().t) return;
+    initialize();
+  }
+
+  // ---- clock alignment -------------------------------------------------------------------
+  // A camera's time offset may be far off (a driver stamping on arrival, another clock). Before
+  // initializing, each camera's angular velocity from consecutive board poses, rotated into the
+  // IMU frame with the extrinsic guess, is matched against the gyroscope over offsets within
+  // +-kAlignRange; a clear best match replaces the configured offset.
+  static constexpr TimeNs kAlignSpanNs = 1500000000;  // 1.5 s of board poses
+  static constexpr double kAlignRange = 0.3;          // [s]
+
+  void recordBoardRotation(std::size_t c, TimeNs stamp, const SE3& T_G_C) {
+    auto& h = board_rotations[c];
+    if (!h.empty() && stamp <= h.back().first) return;
+    h.emplace_back(stamp, T_G_C.rotation());
+    while (h.size() > 2 && h.back().first - h.front().first > 2 * kAlignSpanNs) h.pop_front();
+  }
+
+  // The offset correction of camera c [s], or 0 when the data do not decide it.
+  double clockCorrection(std::size_t c) const {
+    const auto& h = board_rotations[c];
+    // Mean angular velocity over ~0.15 s between board poses (frame-to-frame differences of
+    // board poses are too noisy), against the mean gyroscope reading over the same span.
+    struct Rate {
+      double t0, t1;  // camera clock, relative to the first rotation [s]
+      Eigen::Vector3d w_I;
+    };
+    std::vector<Rate> rates;
+    const Eigen::Matrix3d R_I_C = poseToSE3(cameras[c]->extrinsic).rotation().transpose();
+    for (std::size_t i = 0, j = 0; i < h.size(); i = j) {
+      j = i + 1;
+      while (j < h.size() && h[j].first - h[i].first < fromSeconds(0.15)) ++j;
+      if (j >= h.size()) break;
+      const double dt = toSeconds(h[j].first - h[i].first);
+      if (dt > 0.3) continue;  // a hole in the board poses
+      const Eigen::Vector3d w_C = lie::logSO3(h[i].second.transpose() * h[j].second) / dt;
+      if (w_C.norm() > 10.0) continue;  // not a hand-held motion: a flipped board pose
+      rates.push_back({toSeconds(h[i].first - h.front().first),
+                       toSeconds(h[j].first - h.front().first), R_I_C * w_C});
+    }
+    if (rates.size() < 8 || imu.size() < 2) return 0.0;
+    double mean_speed = 0.0, var_speed = 0.0;
+    for (const auto& r : rates) mean_speed += r.w_I.norm() / rates.size();
+    for (const auto& r : rates) var_speed += std::pow(r.w_I.norm() - mean_speed, 2) / rates.size();
+    if (std::sqrt(var_speed) < 0.05 && mean_speed < 0.1) return 0.0;  // hardly moving
+    const TimeNs base = h.front().first + timeOffsetNs(c);
+    auto cost = [&](double delta) {
+      double sum = 0.0;
+      int n = 0;
+      for (const auto& r : rates) {
+        const TimeNs a = base + fromSeconds(r.t0 + delta), b = base + fromSeconds(r.t1 + delta);
+        if (a < imu.front().stamp_ns || b > imu.back().stamp_ns) continue;
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (int k = 0; k <= 8; ++k) mean += readingAt(a + (b - a) * k / 8).gyro / 9.0;
+        // Truncated: a board pose that flipped to its mirror solution makes a wild rate.
+        sum += std::min((r.w_I - mean).squaredNorm(), 0.25);
+        ++n;
+      }
+      return n >= static_cast<int>(0.7 * rates.size()) ? sum / n
+                                                       : std::numeric_limits<double>::infinity();
+    };
+    const int steps = static_cast<int>(kAlignRange / 0.001);
+    std::vector<double> costs(2 * steps + 1);
+    int best = steps;
+    for (int k = -steps; k <= steps; ++k) {
+      costs[k + steps] = cost(k * 0.001);
+      if (costs[k + steps] < costs[best]) best = k + steps;
+    }
+    if (!std::isfinite(costs[best])) return 0.0;
+    // A clear winner: well below the typical cost.
+    std::vector<double> sorted(costs.begin(), costs.end());
+    std::sort(sorted.begin(), sorted.end());
+    if (!(costs[best] < 0.3 * sorted[sorted.size() / 2])) return 0.0;
+    double delta = (best - steps) * 0.001;
+    if (best > 0 && best < 2 * steps && std::isfinite(costs[best - 1]) &&
+        std::isfinite(costs[best + 1])) {
+      const double a = costs[best - 1], b = costs[best], d = costs[best + 1];
+      const double curvature = a - 2.0 * b + d;
+      if (curvature > 0.0) delta += 0.001 * 0.5 * (a - d) / curvature;
+    }
+    return delta;
+  }
+
+  void alignClocks() {
+    std::ostringstream said;
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      const double delta = clockCorrection(c);
+      if (std::abs(delta) < 0.002) continue;  // within what the estimator refines anyway
+      cameras[c]->time_offset[0] += delta;
+      said << " " << rig.cameras[c].name << " " << (delta > 0 ? "+" : "") << delta * 1e3 << " ms";
+      if (c == 0) {
+        // The window states sit at cam0's frames: move them with its clock.
+        for (auto& f : init) f.t = f.frame.stamp_ns + timeOffsetNs(0);
+        if (!imu.empty() && init.front().t < imu.front().stamp_ns) init.clear();
+      }
+    }
+    if (!said.str().empty()) {
+      ++counters.clock_corrections;
+      clock_message = "time offsets corrected from the gyroscope:" + said.str();
+    }
   }
 
   void initialize() {
@@ -586,7 +711,7 @@ struct Estimator::Impl {
     const auto start = Clock::now();
     SolveSummary summary = solve(std::max(30, options.max_iterations), 1.0);
     initialized = true;
-    status_text = "running";
+    status_text = clock_message.empty() ? "running" : "running; " + clock_message;
     while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
     publish(summary, start);
   }
@@ -712,6 +837,10 @@ struct Estimator::Impl {
     TimeNs keep_from = std::numeric_limits<TimeNs>::max();
     if (!states.empty()) keep_from = states.back()->t;
     if (!init.empty()) keep_from = std::min(keep_from, init.front().t);
+    if (!initialized && !imu.empty()) {
+      // Clock alignment looks up to kAlignRange around 2 * kAlignSpanNs of board poses.
+      keep_from = std::min(keep_from, imu.back().stamp_ns - 2 * kAlignSpanNs - kNsPerSecond);
+    }
     if (keep_from == std::numeric_limits<TimeNs>::max()) {
       // Nothing to anchor to: keep two seconds.
       if (!imu.empty()) keep_from = imu.back().stamp_ns - 2 * kNsPerSecond;
@@ -727,6 +856,8 @@ struct Estimator::Impl {
     base_frames.clear();
     for (auto& q : other_frames) q.clear();
     init.clear();
+    for (auto& h : board_rotations) h.clear();
+    clocks_aligned = false;
     initialized = false;
     last_imu = std::numeric_limits<TimeNs>::min();
     std::fill(last_frame.begin(), last_frame.end(), std::numeric_limits<TimeNs>::min());
