@@ -115,6 +115,7 @@ int main(int argc, char** argv) {
   // Offline there is no deadline: without the per-solve time budget, results do not depend on
   // the machine's load.
   options.estimator.max_solve_time_s = 1e3;
+  options.estimator.init_solve_time_s = 1e3;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

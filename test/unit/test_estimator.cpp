@@ -72,6 +72,7 @@ SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t see
 EstimatorOptions deterministic() {
   EstimatorOptions o;
   o.max_solve_time_s = 1e3;
+  o.init_solve_time_s = 1e3;
   return o;
 }
 

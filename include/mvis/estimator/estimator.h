@@ -47,6 +47,7 @@ struct EstimatorOptions {
   int window_size = 6;                // states kept in the window (>= 3)
   int max_iterations = 10;            // per solve
   double max_solve_time_s = 0.05;     // per solve [s]
+  double init_solve_time_s = 1.0;     // for the initial batch [s]
   int threads = 1;                    // Ceres threads
   double pixel_sigma_px = 1.0;        // corner noise [px]
   double huber_sigma = 3.0;           // robust loss threshold [sigma units], 0: plain squares

@@ -87,6 +87,7 @@ Status validate(const EstimatorOptions& o) {
   if (o.window_size < 3) return bad("window_size", "must be at least 3");
   if (o.max_iterations < 1) return bad("max_iterations", "must be at least 1");
   if (!(o.max_solve_time_s > 0.0)) return bad("max_solve_time_s", "must be positive");
+  if (!(o.init_solve_time_s > 0.0)) return bad("init_solve_time_s", "must be positive");
   if (o.threads < 1) return bad("threads", "must be at least 1");
   if (!(o.pixel_sigma_px > 0.0)) return bad("pixel_sigma_px", "must be positive");
   if (!(o.huber_sigma >= 0.0)) return bad("huber_sigma", "must be zero or positive");
@@ -709,7 +710,7 @@ struct Estimator::Impl {
     init.clear();
     attachOtherFrames();
     const auto start = Clock::now();
-    SolveSummary summary = solve(std::max(30, options.max_iterations), 1.0);
+    SolveSummary summary = solve(std::max(30, options.max_iterations), options.init_solve_time_s);
     initialized = true;
     status_text = clock_message.empty() ? "running" : "running; " + clock_message;
     while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
@@ -755,6 +756,10 @@ struct Estimator::Impl {
     // Remove the old prior and the state (with every residual on it).
     if (prior.id != nullptr) problem->RemoveResidualBlock(prior.id);
     prior = ResidualRecord{};
+    // Residual blocks one by one in their recorded order: Ceres's own removal of a parameter
+    // block's dependents walks a hash set, whose order (pointer values) would make results
+    // differ from run to run in the last digits, and the window amplifies that.
+    for (const auto& r : oldest->residuals) problem->RemoveResidualBlock(r.id);
     problem->RemoveParameterBlock(oldest->pose);
     problem->RemoveParameterBlock(oldest->speed_bias);
     past.push_back(oldest->toEstimate());
