@@ -109,6 +109,7 @@ void MvisNodelet::onInit() {
     }
     estimator_ = std::move(estimator).value();
     estimator_->setUpdateCallback([this](const EstimatorUpdate& u) { onUpdate(u); });
+    estimator_->setPropagationCallback([this](const EstimatorState& s) { onPropagated(s); });
   } else {
     NODELET_WARN_STREAM("mvis: " << options_.config_dir
                                  << " has no aprilgrid.yaml: the estimator needs a known board "
@@ -346,12 +347,44 @@ MvisNodelet::~MvisNodelet() {
 void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   last_update_ = u;
   have_update_ = true;
+  gravity_G_ = u.gravity_G;
   if (u.pose_covariance.allFinite()) last_pose_covariance_ = u.pose_covariance;
   const ros::Time stamp = ros_conversions::toRosTime(u.state.stamp_ns);
+  const std::string base = options_.frame_prefix + rig_.inertial[0].name;
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  const Rig calibration = estimator_->calibration();
+  for (const auto& cam : calibration.cameras) {
+    transforms.push_back(
+        stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
+  }
+  tf_broadcaster_->sendTransform(transforms);
+
+  geometry_msgs::PoseStamped pose;
+  pose.header.stamp = stamp;
+  pose.header.frame_id = options_.world_frame;
+  const SE3 T_W_I = worldFromBoard(u.gravity_G) * u.state.T_G_I;
+  pose.pose.position.x = T_W_I.p.x();
+  pose.pose.position.y = T_W_I.p.y();
+  pose.pose.position.z = T_W_I.p.z();
+  pose.pose.orientation.x = T_W_I.q.x();
+  pose.pose.orientation.y = T_W_I.q.y();
+  pose.pose.orientation.z = T_W_I.q.z();
+  pose.pose.orientation.w = T_W_I.q.w();
+  path_.header.stamp = stamp;
+  path_.poses.push_back(pose);
+  if (path_.poses.size() > 20000) {
+    path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
+  }
+  if (path_.poses.size() % 30 == 0) path_pub_.publish(path_);
+  if (u.calibration_covariance_updated) publishCalibration();
+}
+
+void MvisNodelet::onPropagated(const EstimatorState& state) {
+  const ros::Time stamp = ros_conversions::toRosTime(state.stamp_ns);
   const std::string board = options_.frame_prefix + "board";
   const std::string base = options_.frame_prefix + rig_.inertial[0].name;
-  const SE3 T_W_G = worldFromBoard(u.gravity_G);
-  const SE3 T_W_I = T_W_G * u.state.T_G_I;
+  const SE3 T_W_G = worldFromBoard(gravity_G_);
+  const SE3 T_W_I = T_W_G * state.T_G_I;
 
   nav_msgs::Odometry odom;
   odom.header.stamp = stamp;
@@ -365,7 +398,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   odom.pose.pose.orientation.z = T_W_I.q.z();
   odom.pose.pose.orientation.w = T_W_I.q.w();
   // Covariance in ROS order (x y z, then rotation about x y z), all in {W}: the estimator's
-  // [dtheta (body), dp (board)] rotated.
+  // [dtheta (body), dp (board)] of the newest window state, rotated.
   Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
   A.block<3, 3>(0, 3) = T_W_G.rotation();
   A.block<3, 3>(3, 0) = T_W_I.rotation();
@@ -373,8 +406,8 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) odom.pose.covariance[6 * r + c] = C(r, c);
   }
-  const Eigen::Vector3d v_I = T_W_I.q.conjugate() * (T_W_G.q * u.state.v_G);
-  const Eigen::Vector3d w_I = last_gyro_ - u.state.bias_gyro;
+  const Eigen::Vector3d v_I = T_W_I.q.conjugate() * (T_W_G.q * state.v_G);
+  const Eigen::Vector3d w_I = last_gyro_ - state.bias_gyro;
   odom.twist.twist.linear.x = v_I.x();
   odom.twist.twist.linear.y = v_I.y();
   odom.twist.twist.linear.z = v_I.z();
@@ -382,26 +415,8 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   odom.twist.twist.angular.y = w_I.y();
   odom.twist.twist.angular.z = w_I.z();
   odometry_pub_.publish(odom);
-
-  std::vector<geometry_msgs::TransformStamped> transforms;
-  transforms.push_back(stampedTransform(T_W_G, stamp, options_.world_frame, board));
-  transforms.push_back(stampedTransform(u.state.T_G_I, stamp, board, base));
-  const Rig calibration = estimator_->calibration();
-  for (const auto& cam : calibration.cameras) {
-    transforms.push_back(
-        stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
-  }
-  tf_broadcaster_->sendTransform(transforms);
-
-  geometry_msgs::PoseStamped pose;
-  pose.header = odom.header;
-  pose.pose = odom.pose.pose;
-  path_.header.stamp = stamp;
-  path_.poses.push_back(pose);
-  if (path_.poses.size() > 20000)
-    path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
-  if (path_pub_.getNumSubscribers() > 0 || path_.poses.size() % 30 == 0) path_pub_.publish(path_);
-  if (u.calibration_covariance_updated) publishCalibration();
+  tf_broadcaster_->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
+                                  stampedTransform(state.T_G_I, stamp, board, base)});
 }
 
 void MvisNodelet::publishTags() {

@@ -116,6 +116,7 @@ struct EstimatorCounters {
 class Estimator {
  public:
   using UpdateCallback = std::function<void(const EstimatorUpdate&)>;
+  using PropagationCallback = std::function<void(const EstimatorState&)>;
 
   // Needs a rig with at least one camera and a board (aprilgrid.yaml).
   static StatusOr<std::unique_ptr<Estimator>> create(const Rig& rig,
@@ -132,6 +133,9 @@ class Estimator {
   Status addTagFrame(const TagFrame& frame);
 
   void setUpdateCallback(UpdateCallback callback);
+  // Called with every base-IMU reading after the newest window state: that state propagated to
+  // the reading's time with the readings since (IMU-rate odometry between solves).
+  void setPropagationCallback(PropagationCallback callback);
 
   // The rig with the current calibration estimate; with standard deviations when a covariance
   // has been computed (computeCovariance, or every `covariance_every` solves).

@@ -56,6 +56,9 @@ class MvisNodelet : public nodelet::Nodelet {
   void publishDiagnostics();
   // Called by the estimator (under estimator_mutex_) after each solve.
   void onUpdate(const EstimatorUpdate& update);
+  // Called by the estimator (under estimator_mutex_) with every base-IMU reading after the
+  // newest window state: odometry and the world/board/base TF at IMU rate.
+  void onPropagated(const EstimatorState& state);
   void publishCalibration();
   // The board's tags as rviz markers in the board frame (latched, once).
   void publishTags();
@@ -83,6 +86,7 @@ class MvisNodelet : public nodelet::Nodelet {
   bool have_update_ = false;
   Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();
   nav_msgs::Path path_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   ros::ServiceServer save_service_, reset_service_;

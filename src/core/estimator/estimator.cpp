@@ -128,6 +128,9 @@ struct Estimator::Impl {
   bool clocks_aligned = false;
   std::vector<EstimatorState> past;
   UpdateCallback callback;
+  PropagationCallback propagation_callback;
+  std::shared_ptr<ImuPreintegration> propagation;  // from the newest state on
+  TimeNs propagation_from = std::numeric_limits<TimeNs>::min();
   EstimatorCounters counters;
   bool initialized = false;
   std::string clock_message;  // what the clock alignment changed, if anything
@@ -196,6 +199,7 @@ struct Estimator::Impl {
     imu.push_back(m);
     if (imu.size() > 1) imu.back().span_ns = m.stamp_ns - imu[imu.size() - 2].stamp_ns;
     process();
+    propagate(m);
     if (gap) {
       ++counters.imu_gaps;
       std::ostringstream s;
@@ -717,6 +721,33 @@ struct Estimator::Impl {
     publish(summary, start);
   }
 
+  // IMU-rate state: the newest window state carried forward with the readings since.
+  void propagate(const ImuMeasurement& m) {
+    if (!propagation_callback || !initialized || states.empty()) return;
+    const State& newest = *states.back();
+    if (m.stamp_ns <= newest.t) return;
+    const Eigen::Vector3d bg(newest.speed_bias + 3), ba(newest.speed_bias + 6);
+    if (!propagation || propagation_from != newest.t) {
+      propagation =
+          std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
+      for (const auto& r : imuBetween(newest.t, m.stamp_ns)) propagation->add(r);
+      propagation_from = newest.t;
+    } else {
+      propagation->add(m);
+    }
+    EstimatorState out;
+    out.stamp_ns = m.stamp_ns;
+    Eigen::Quaterniond q;
+    Eigen::Vector3d p, v;
+    propagation->predict(poseRotation(newest.pose), posePosition(newest.pose),
+                         Eigen::Vector3d(newest.speed_bias), Eigen::Vector3d(gravity), &q, &p, &v);
+    out.T_G_I = SE3(q, p);
+    out.v_G = v;
+    out.bias_gyro = bg;
+    out.bias_accel = ba;
+    propagation_callback(out);
+  }
+
   // ---- solving and marginalization -------------------------------------------------------
 
   SolveSummary solve(int iterations, double max_time_s = -1.0) {
@@ -906,6 +937,9 @@ Status Estimator::addImu(std::size_t sensor, const ImuMeasurement& m) {
 Status Estimator::addTagFrame(const TagFrame& frame) { return impl_->addTagFrame(frame); }
 void Estimator::setUpdateCallback(UpdateCallback callback) {
   impl_->callback = std::move(callback);
+}
+void Estimator::setPropagationCallback(PropagationCallback callback) {
+  impl_->propagation_callback = std::move(callback);
 }
 Rig Estimator::calibration() const { return impl_->calibration(); }
 Status Estimator::computeCovariance() { return impl_->covariance(nullptr); }
