@@ -12,30 +12,13 @@
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/imu_factor.h"
 #include "mvis/sim/imu_simulator.h"
+#include "sim_test_util.h"
 
 namespace mvis {
 namespace {
 
-// ~0.3 m and ~0.5 rad swings at 0.2-0.9 Hz (as test_sim_inertial).
-SinusoidTrajectory handheld() {
-  std::array<Signal, 3> position = {Signal{0.3, {{0.30, 0.23, 0.0}, {0.05, 0.71, 1.0}}},
-                                    Signal{0.3, {{0.25, 0.31, 0.5}, {0.04, 0.83, 2.0}}},
-                                    Signal{1.0, {{0.15, 0.27, 1.2}, {0.03, 0.91, 0.3}}}};
-  std::array<Signal, 3> euler = {Signal{0.2, {{0.50, 0.19, 0.0}, {0.10, 0.67, 0.4}}},
-                                 Signal{0.0, {{0.35, 0.29, 1.1}, {0.08, 0.73, 0.2}}},
-                                 Signal{0.0, {{0.40, 0.23, 2.1}, {0.07, 0.87, 0.9}}}};
-  Eigen::Matrix3d R_offset;
-  R_offset << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  return SinusoidTrajectory(position, euler, R_offset);
-}
-
-InertialSensor baseImu(double rate_hz) {
-  InertialSensor s;
-  s.name = "imu0";
-  s.update_rate = rate_hz;
-  s.noise = {2e-3, 3e-3, 1.7e-4, 1.9e-5};
-  return s;
-}
+using test::handheld;
+using test::idealImu;
 
 // Readings of `sensor` over [t_i, t_j] seconds (base clock, t0 = 0), preintegrated.
 ImuPreintegration preintegrate(const InertialSensor& sensor, const SinusoidTrajectory& trajectory,
@@ -60,7 +43,7 @@ ImuSimulationOptions noiseFree() {
 TEST(ImuPreintegration, NoiseFreeDeltasReproduceTheTrajectory) {
   const auto trajectory = handheld();
   for (double rate : {200.0, 500.0}) {
-    const ImuPreintegration pre = preintegrate(baseImu(rate), trajectory, 1.0, 1.1, noiseFree());
+    const ImuPreintegration pre = preintegrate(idealImu(rate), trajectory, 1.0, 1.1, noiseFree());
     ASSERT_NEAR(pre.duration(), 0.1, 1e-12);
     const TrajectoryState si = trajectory.evaluate(1.0), sj = trajectory.evaluate(1.1);
     Eigen::Quaterniond q;
@@ -78,7 +61,7 @@ TEST(ImuPreintegration, NoiseFreeDeltasReproduceTheTrajectory) {
 
 TEST(ImuPreintegration, BiasCorrectionMatchesReintegration) {
   const auto trajectory = handheld();
-  ImuPreintegration pre = preintegrate(baseImu(500.0), trajectory, 2.0, 2.2, noiseFree());
+  ImuPreintegration pre = preintegrate(idealImu(500.0), trajectory, 2.0, 2.2, noiseFree());
   const Eigen::Vector3d bg(2e-3, -1e-3, 1.5e-3), ba(2e-2, 1e-2, -3e-2);
   const Eigen::Quaterniond R1 = pre.correctedDeltaR(bg);
   const Eigen::Vector3d p1 = pre.correctedDeltaP(bg, ba), v1 = pre.correctedDeltaV(bg, ba);
@@ -117,7 +100,7 @@ TEST(ImuPreintegration, CovarianceMatchesMonteCarloErrors) {
   // Normalized squared error of [dtheta, dp, dv] over noisy runs: chi-square with 9 degrees of
   // freedom if the covariance is right. Mean over 400 runs: 9 +- 0.21 (1 sigma).
   const auto trajectory = handheld();
-  InertialSensor sensor = baseImu(500.0);
+  InertialSensor sensor = idealImu(500.0);
   sensor.noise.accelerometer_random_walk = 0.0;  // no bias walk: the errors are white noise only
   sensor.noise.gyroscope_random_walk = 0.0;
   const ImuPreintegration truth = preintegrate(sensor, trajectory, 3.0, 3.1, noiseFree());
@@ -147,7 +130,7 @@ ImuFactorFixture makeFixture(double offset) {
   const auto trajectory = handheld();
   ImuFactorFixture f;
   f.pre = std::make_shared<ImuPreintegration>(
-      preintegrate(baseImu(500.0), trajectory, 4.0, 4.1, noiseFree()));
+      preintegrate(idealImu(500.0), trajectory, 4.0, 4.1, noiseFree()));
   const TrajectoryState si = trajectory.evaluate(4.0), sj = trajectory.evaluate(4.1);
   auto pose = [&](const TrajectoryState& s, double k) {
     std::vector<double> b(7);
