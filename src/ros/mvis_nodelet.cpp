@@ -290,8 +290,11 @@ void MvisNodelet::publishDiagnostics() {
     const EstimatorCounters& c = estimator_->counters();
     add("solves", std::to_string(c.solves));
     add("resets", std::to_string(c.resets));
-    add("frames_dropped", std::to_string(c.frames_too_old + c.frames_out_of_order));
+    add("frames_dropped",
+        std::to_string(c.frames_too_old + c.frames_out_of_order + c.frames_in_imu_gap));
     add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
+    add("imu_gaps", std::to_string(c.imu_gaps));
+    add("clock_corrections", std::to_string(c.clock_corrections));
     if (!estimator_error_.empty()) add("last_problem", estimator_error_);
     array.status.push_back(status);
   }
