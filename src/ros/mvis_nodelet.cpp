@@ -188,8 +188,15 @@ void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg)
   if (!estimator_) return;
   std::lock_guard<std::mutex> lock(estimator_mutex_);
   if (sensor == 0) last_gyro_ = reading.gyro;
+  const long resets = estimator_->counters().resets;
   const Status status = estimator_->addImu(sensor, reading);
-  if (!status.ok()) {
+  if (estimator_->counters().resets != resets) {
+    // Time went backwards (a bag started over): the estimator said so and started over, and so
+    // does the path. Not throttled: it is rare and important.
+    path_.poses.clear();
+    have_update_ = false;
+    NODELET_WARN_STREAM("mvis: " << status.message());
+  } else if (!status.ok()) {
     estimator_error_ = status.message();
     NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << status.message());
   }
