@@ -228,6 +228,11 @@ struct Estimator::Impl {
     }
     if (frame.camera == 0) {
       base_frames.push_back(frame);
+      // Frames wait for the IMU to pass them; if it stops, they must not pile up without bound.
+      while (base_frames.size() > 300) {
+        base_frames.pop_front();
+        ++counters.frames_too_old;
+      }
     } else {
       auto& q = other_frames[frame.camera];
       q.push_back(frame);
