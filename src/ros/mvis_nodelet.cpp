@@ -101,6 +101,7 @@ void MvisNodelet::onInit() {
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;
     eo.max_iterations = options_.max_iterations;
+    eo.solve_every = options_.solve_every;
     eo.threads = options_.solver_threads;
     auto estimator = Estimator::create(rig_, eo);
     if (!estimator.ok()) {

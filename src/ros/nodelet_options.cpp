@@ -19,6 +19,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
   nh.param("max_iterations", o.max_iterations, o.max_iterations);
+  nh.param("solve_every", o.solve_every, o.solve_every);
   nh.param("solver_threads", o.solver_threads, o.solver_threads);
   nh.param("result_dir", o.result_dir, o.result_dir);
   return o;
@@ -44,6 +45,9 @@ std::string NodeletOptions::validate() const {
   if (window_size < 3) return "parameter ~window_size must be >= 3";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
   if (max_iterations < 1) return "parameter ~max_iterations must be >= 1";
+  if (solve_every < 1 || solve_every >= window_size) {
+    return "parameter ~solve_every must be >= 1 and < ~window_size";
+  }
   if (solver_threads < 1) return "parameter ~solver_threads must be >= 1";
   return "";
 }

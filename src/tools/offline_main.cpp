@@ -1,5 +1,5 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
-//              [--pixel-sigma PX] [--window N] [--max-iterations N]
+//              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -24,7 +24,7 @@ int usage(const char* message) {
   std::fprintf(stderr,
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--window N]\n"
-               "                    [--max-iterations N]\n"
+               "                    [--max-iterations N] [--solve-every N]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -33,8 +33,9 @@ int usage(const char* message) {
                "  --interpolation  frame poses from the IMU (default) or the report's\n"
                "                   kinematic/pose-based interpolation\n"
                "  --pixel-sigma PX corner noise (default 1)\n"
-               "  --window N       states in the sliding window (default 6)\n"
-               "  --max-iterations N  Ceres iterations per update (default 10)\n",
+               "  --window N       states in the sliding window (default 4)\n"
+               "  --max-iterations N  Ceres iterations per update (default 10)\n"
+               "  --solve-every N  solve after every n-th cam0 frame (default 3)\n",
                message);
   return 2;
 }
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
+  int solve_every = mvis::EstimatorOptions{}.solve_every;
   for (int i = 1; i < argc; ++i) {
     const auto value = [&](std::string* out) {
       if (i + 1 >= argc) return false;
@@ -76,6 +78,10 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 3) return usage("--window takes a state count >= 3");
       window = std::atoi(v.c_str());
+    } else if (arg == "--solve-every") {
+      std::string v;
+      if (!value(&v) || std::atoi(v.c_str()) < 1) return usage("--solve-every takes a count >= 1");
+      solve_every = std::atoi(v.c_str());
     } else if (arg == "--max-iterations") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) {
@@ -112,6 +118,7 @@ int main(int argc, char** argv) {
   options.estimator.pixel_sigma_px = pixel_sigma;
   options.estimator.window_size = window;
   options.estimator.max_iterations = iterations;
+  options.estimator.solve_every = solve_every;
   // Offline there is no deadline: without the per-solve time budget, results do not depend on
   // the machine's load.
   options.estimator.max_solve_time_s = 1e3;

@@ -44,7 +44,10 @@ enum class FrameInterpolation {
 
 struct EstimatorOptions {
   FrameInterpolation interpolation = FrameInterpolation::kImu;
-  int window_size = 6;                // states kept in the window (>= 3)
+  int window_size = 4;  // states kept in the window (>= 3)
+  // Solve after every n-th cam0 frame (states are still added, predicted by the IMU, and
+  // marginalized at every frame): a budget for slow machines.
+  int solve_every = 3;
   int max_iterations = 10;            // per solve
   double max_solve_time_s = 0.05;     // per solve [s]
   double init_solve_time_s = 1.0;     // for the initial batch [s]

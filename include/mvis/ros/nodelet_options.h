@@ -19,11 +19,12 @@ struct NodeletOptions {
   int tag_max_hamming = 1;             // bits the tag decoder may correct (0..2)
   int tag_threads = 1;                 // libapriltag threads per camera
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
-  int window_size = 6;                // states in the sliding window
+  int window_size = 4;                // states in the sliding window
   double pixel_sigma = 1.0;           // [px] corner noise
   bool estimate_extrinsics = true;    // camera-IMU extrinsics
   bool estimate_time_offsets = true;  // camera time offsets
   int max_iterations = 10;            // per solve
+  int solve_every = 3;                // solve after every n-th cam0 frame
   int solver_threads = 1;             // Ceres threads
   std::string result_dir;             // written on shutdown and by ~save_calibration
 

@@ -86,6 +86,11 @@ Status validate(const EstimatorOptions& o) {
   };
   if (o.window_size < 3) return bad("window_size", "must be at least 3");
   if (o.max_iterations < 1) return bad("max_iterations", "must be at least 1");
+  if (o.solve_every < 1 || o.solve_every >= o.window_size) {
+    return bad("solve_every",
+               "must be at least 1 and less than window_size (every state must "
+               "be solved before it is marginalized)");
+  }
   if (!(o.max_solve_time_s > 0.0)) return bad("max_solve_time_s", "must be positive");
   if (!(o.init_solve_time_s > 0.0)) return bad("init_solve_time_s", "must be positive");
   if (o.threads < 1) return bad("threads", "must be at least 1");
@@ -139,6 +144,7 @@ struct Estimator::Impl {
   std::vector<TimeNs> last_frame;
   std::optional<std::vector<CameraCalibrationStd>> camera_std;
   int solves_since_covariance = 0;
+  int frames_since_solve = 0;
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
     for (const auto& cam : rig.cameras) {
@@ -266,7 +272,14 @@ struct Estimator::Impl {
         const auto start = Clock::now();
         addState(taken, t);
         attachOtherFrames();
-        SolveSummary summary = solve(options.max_iterations);
+        SolveSummary summary;
+        if (++frames_since_solve >= options.solve_every) {
+          summary = solve(options.max_iterations);
+          frames_since_solve = 0;
+        } else {
+          summary = windowSummary();  // the new state as the IMU predicted it
+          summary.usable = true;
+        }
         if (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
         publish(summary, start);
       }
@@ -765,11 +778,16 @@ struct Estimator::Impl {
     ceres::Solver::Summary s;
     ceres::Solve(o, problem.get(), &s);
     ++counters.solves;
-    SolveSummary out;
+    SolveSummary out = windowSummary();
     out.iterations = static_cast<int>(s.iterations.size());
     out.solve_s = s.total_time_in_seconds;
     out.cost = s.final_cost;
     out.usable = s.IsSolutionUsable();
+    return out;
+  }
+
+  SolveSummary windowSummary() const {
+    SolveSummary out;
     out.states = static_cast<int>(states.size());
     for (const auto& st : states) {
       out.frames += st->frames;
