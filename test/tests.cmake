@@ -61,3 +61,4 @@ add_custom_target(mvis_replay_data DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
 add_dependencies(tests mvis_replay_data)
 add_rostest(test/ros/replay.test ARGS data:=${MVIS_REPLAY_DATA}
   DEPENDENCIES mvis_ros mvis_node mvis_replay_data)
+mvis_core_test(test_initialization test/unit/test_initialization.cpp)

@@ -9,11 +9,11 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <opencv2/calib3d.hpp>
 #include <optional>
 #include <sstream>
 
 #include "mvis/camera/camera_model.h"
+#include "mvis/estimator/initialization.h"
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/imu_factor.h"
 #include "mvis/factors/marginalization_factor.h"
@@ -67,15 +67,6 @@ struct InitFrame {
 
 double seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
-}
-
-std::vector<CornerObservation> cornersOf(const TagFrame& frame, const AprilGrid& grid) {
-  std::vector<CornerObservation> out;
-  for (const auto& tag : frame.tags) {
-    if (tag.tag_id < 0 || tag.tag_id >= grid.numTags()) continue;
-    for (int k = 0; k < 4; ++k) out.push_back({grid.corner(tag.tag_id, k), tag.corners_px[k]});
-  }
-  return out;
 }
 
 }  // namespace
@@ -382,7 +373,7 @@ struct Estimator::Impl {
                                    std::vector<double*>* blocks, int* corners) {
     const std::size_t c = frame.camera;
     CameraBlocks& cb = *cameras[c];
-    auto obs = cornersOf(frame, *rig.target);
+    auto obs = boardCorners(frame, *rig.target);
     *corners = static_cast<int>(obs.size());
     if (obs.empty()) return nullptr;
     const DistortionModel model = rig.cameras[c].distortion_model;
@@ -504,30 +495,13 @@ struct Estimator::Impl {
 
   // ---- initialization --------------------------------------------------------------------
 
+  // The camera's board pose with its current intrinsics.
   bool boardPose(const TagFrame& frame, SE3* T_G_C) const {
-    const Camera& cam = rig.cameras[frame.camera];
-    Camera current = cam;
+    Camera current = rig.cameras[frame.camera];
     const CameraBlocks& cb = *cameras[frame.camera];
     current.intrinsics = Eigen::Vector4d(cb.intrinsics);
     current.distortion_coeffs = Eigen::Vector4d(cb.intrinsics + 4);
-    std::vector<cv::Point3d> object;
-    std::vector<cv::Point2d> image;
-    for (const auto& o : cornersOf(frame, *rig.target)) {
-      Eigen::Vector2d m;
-      if (!unprojectPixel(current, o.uv, &m)) continue;
-      object.emplace_back(o.p_G.x(), o.p_G.y(), o.p_G.z());
-      image.emplace_back(m.x(), m.y());
-    }
-    if (object.size() < 4 * static_cast<std::size_t>(options.min_tags)) return false;
-    cv::Mat rvec, tvec;
-    const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
-    if (!cv::solvePnP(object, image, K, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE)) {
-      return false;
-    }
-    const Eigen::Vector3d w(rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2));
-    const Eigen::Vector3d tr(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
-    *T_G_C = SE3(lie::expSO3(w), tr).inverse();
-    return T_G_C->p.allFinite();
+    return mvis::boardPose(current, *rig.target, frame, options.min_tags, T_G_C);
   }
 
   void addInitFrame(TagFrame frame, TimeNs t) {
@@ -578,67 +552,11 @@ struct Estimator::Impl {
 
   // The offset correction of camera c [s], or 0 when the data do not decide it.
   double clockCorrection(std::size_t c) const {
-    const auto& h = board_rotations[c];
-    // Mean angular velocity over ~0.15 s between board poses (frame-to-frame differences of
-    // board poses are too noisy), against the mean gyroscope reading over the same span.
-    struct Rate {
-      double t0, t1;  // camera clock, relative to the first rotation [s]
-      Eigen::Vector3d w_I;
-    };
-    std::vector<Rate> rates;
+    if (imu.size() < 2) return 0.0;
     const Eigen::Matrix3d R_I_C = poseToSE3(cameras[c]->extrinsic).rotation().transpose();
-    for (std::size_t i = 0, j = 0; i < h.size(); i = j) {
-      j = i + 1;
-      while (j < h.size() && h[j].first - h[i].first < fromSeconds(0.15)) ++j;
-      if (j >= h.size()) break;
-      const double dt = toSeconds(h[j].first - h[i].first);
-      if (dt > 0.3) continue;  // a hole in the board poses
-      const Eigen::Vector3d w_C = lie::logSO3(h[i].second.transpose() * h[j].second) / dt;
-      if (w_C.norm() > 10.0) continue;  // not a hand-held motion: a flipped board pose
-      rates.push_back({toSeconds(h[i].first - h.front().first),
-                       toSeconds(h[j].first - h.front().first), R_I_C * w_C});
-    }
-    if (rates.size() < 8 || imu.size() < 2) return 0.0;
-    double mean_speed = 0.0, var_speed = 0.0;
-    for (const auto& r : rates) mean_speed += r.w_I.norm() / rates.size();
-    for (const auto& r : rates) var_speed += std::pow(r.w_I.norm() - mean_speed, 2) / rates.size();
-    if (std::sqrt(var_speed) < 0.05 && mean_speed < 0.1) return 0.0;  // hardly moving
-    const TimeNs base = h.front().first + timeOffsetNs(c);
-    auto cost = [&](double delta) {
-      double sum = 0.0;
-      int n = 0;
-      for (const auto& r : rates) {
-        const TimeNs a = base + fromSeconds(r.t0 + delta), b = base + fromSeconds(r.t1 + delta);
-        if (a < imu.front().stamp_ns || b > imu.back().stamp_ns) continue;
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (int k = 0; k <= 8; ++k) mean += readingAt(a + (b - a) * k / 8).gyro / 9.0;
-        // Truncated: a board pose that flipped to its mirror solution makes a wild rate.
-        sum += std::min((r.w_I - mean).squaredNorm(), 0.25);
-        ++n;
-      }
-      return n >= static_cast<int>(0.7 * rates.size()) ? sum / n
-                                                       : std::numeric_limits<double>::infinity();
-    };
-    const int steps = static_cast<int>(kAlignRange / 0.001);
-    std::vector<double> costs(2 * steps + 1);
-    int best = steps;
-    for (int k = -steps; k <= steps; ++k) {
-      costs[k + steps] = cost(k * 0.001);
-      if (costs[k + steps] < costs[best]) best = k + steps;
-    }
-    if (!std::isfinite(costs[best])) return 0.0;
-    // A clear winner: well below the typical cost.
-    std::vector<double> sorted(costs.begin(), costs.end());
-    std::sort(sorted.begin(), sorted.end());
-    if (!(costs[best] < 0.3 * sorted[sorted.size() / 2])) return 0.0;
-    double delta = (best - steps) * 0.001;
-    if (best > 0 && best < 2 * steps && std::isfinite(costs[best - 1]) &&
-        std::isfinite(costs[best + 1])) {
-      const double a = costs[best - 1], b = costs[best], d = costs[best + 1];
-      const double curvature = a - 2.0 * b + d;
-      if (curvature > 0.0) delta += 0.001 * 0.5 * (a - d) / curvature;
-    }
-    return delta;
+    return mvis::clockCorrection(
+        board_rotations[c], R_I_C, timeOffsetNs(c), imu.front().stamp_ns, imu.back().stamp_ns,
+        [this](TimeNs t) { return readingAt(t).gyro; }, kAlignRange);
   }
 
   void alignClocks() {
@@ -662,34 +580,22 @@ struct Estimator::Impl {
 
   void initialize() {
     const std::size_t n = init.size();
-    // Gravity and the first velocity from the preintegrated readings between board poses, with
-    // tau_i = t_i - t_0, T_i = t_i+1 - t_i and zero biases:
-    //   v_i = v_0 + g tau_i + c_i,               c_i+1 = c_i + R_i dv_i
-    //   p_i = p_0 + v_0 tau_i + 1/2 g tau_i^2 + d_i,   d_i+1 = d_i + c_i T_i + R_i dp_i
-    // linear in (v_0, g): least squares over every board position.
+    // Gravity and velocities from the board poses and the readings between them.
     std::vector<std::shared_ptr<ImuPreintegration>> pre;
-    for (std::size_t i = 0; i + 1 < n; ++i) {
-      pre.push_back(
-          preintegrate(init[i].t, init[i + 1].t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+    std::vector<const ImuPreintegration*> pre_ptrs;
+    std::vector<TimeNs> times;
+    std::vector<SE3> poses;
+    for (std::size_t i = 0; i < n; ++i) {
+      times.push_back(init[i].t);
+      poses.push_back(init[i].T_G_I);
+      if (i + 1 < n) {
+        pre.push_back(preintegrate(init[i].t, init[i + 1].t, Eigen::Vector3d::Zero(),
+                                   Eigen::Vector3d::Zero()));
+        pre_ptrs.push_back(pre.back().get());
+      }
     }
-    Eigen::MatrixXd A(3 * (n - 1), 6);
-    Eigen::VectorXd b(3 * (n - 1));
-    std::vector<Eigen::Vector3d> c(n, Eigen::Vector3d::Zero()), d(n, Eigen::Vector3d::Zero());
-    for (std::size_t i = 0; i + 1 < n; ++i) {
-      const double T = toSeconds(init[i + 1].t - init[i].t);
-      const Eigen::Matrix3d R = init[i].T_G_I.rotation();
-      d[i + 1] = d[i] + c[i] * T + R * pre[i]->deltaP();
-      c[i + 1] = c[i] + R * pre[i]->deltaV();
-    }
-    for (std::size_t i = 1; i < n; ++i) {
-      const double tau = toSeconds(init[i].t - init[0].t);
-      A.block<3, 3>(3 * (i - 1), 0) = Eigen::Matrix3d::Identity() * tau;
-      A.block<3, 3>(3 * (i - 1), 3) = Eigen::Matrix3d::Identity() * 0.5 * tau * tau;
-      b.segment<3>(3 * (i - 1)) = init[i].T_G_I.p - init[0].T_G_I.p - d[i];
-    }
-    const Eigen::Matrix<double, 6, 1> x = A.colPivHouseholderQr().solve(b);
-    const Eigen::Vector3d v0 = x.head<3>();
-    Eigen::Vector3d g = x.tail<3>();
+    const GravityAlignment aligned = alignGravity(times, poses, pre_ptrs);
+    Eigen::Vector3d g = aligned.gravity;
     if (!g.allFinite() || std::abs(g.norm() - options.gravity_m_s2) > 0.3 * options.gravity_m_s2) {
       std::ostringstream s;
       s << "initializing: gravity from the first " << n << " frames came out as " << g.norm()
@@ -709,8 +615,7 @@ struct Estimator::Impl {
       s->t = init[i].t;
       s->gyro = gyroAt(s->t);
       se3ToPose(init[i].T_G_I, s->pose);
-      const double tau = toSeconds(init[i].t - init[0].t);
-      Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v0 + g * tau + c[i];
+      Eigen::Map<Eigen::Vector3d>(s->speed_bias) = aligned.velocities[i];
       std::fill(s->speed_bias + 3, s->speed_bias + 9, 0.0);
       states.push_back(std::move(s));
       addStateBlocks(states.back().get());

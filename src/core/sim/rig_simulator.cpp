@@ -102,7 +102,7 @@ std::vector<TagFrame> simulateTagFrames(const Rig& rig, std::size_t camera, doub
       bool visible = true;
       for (int c = 0; c < 4 && visible; ++c) {
         const Eigen::Vector3d p_C = T_C_G * grid.corner(id, c);
-        Eigen::Vector2d uv;
+        Eigen::Vector2d uv = Eigen::Vector2d::Zero();
         visible = p_C.z() > 0.05 && projectToPixel(cam, p_C, &uv) && uv.x() >= 0.0 &&
                   uv.y() >= 0.0 && uv.x() <= frame.width - 1.0 && uv.y() <= frame.height - 1.0;
         tag.corners_px[c] = uv;
