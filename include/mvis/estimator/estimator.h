@@ -11,12 +11,12 @@
 // state is marginalized into a prior (MarginalizationFactor).
 //
 // The world frame is the board's (aprilgrid.yaml); gravity is estimated in it. Initialization
-// waits for `init_frames` consecutive cam0 frames in which the board gives a pose (PnP), takes
-// velocities from their differences and gravity from the preintegrated readings, then solves
-// that window as a batch. Before that, it collects 1.5 s of board poses per camera and matches
-// each camera's angular velocity against the gyroscope within +-0.3 s, so a time offset far from
-// the configured one (a driver stamping on arrival) is corrected before the window starts.
-// Until then `status()` says what it is waiting for.
+// waits for `init_frames` consecutive cam0 frames in which the board gives a pose (PnP), fits
+// velocities and gravity to those poses and the readings preintegrated between them
+// (initialization.h), then solves that window as a batch. Before that, it collects 1.5 s of board
+// poses per camera and matches each camera's angular velocity against the gyroscope within +-0.3 s,
+// so a time offset far from the configured one (a driver stamping on arrival) is corrected before
+// the window starts. Until then `status()` says what it is waiting for.
 //
 // Clocks: IMU readings of imu0 are in the base clock; a frame stamped t_c in camera c's clock
 // happened at t_c + t_d,c (Kalibr's timeshift_cam_imu).
@@ -56,10 +56,12 @@ struct EstimatorOptions {
   double huber_sigma = 3.0;           // robust loss threshold [sigma units], 0: plain squares
   bool estimate_extrinsics = true;    // camera-IMU T_C_I of every camera
   bool estimate_time_offsets = true;  // timeshift_cam_imu of every camera
-  bool estimate_intrinsics = false;   // camera intrinsics and distortion (issue: intrinsics)
-  int init_frames = 10;               // consecutive cam0 frames with a board pose to initialize
-  int min_tags = 2;                   // tags a frame needs to be used at all
-  double gravity_m_s2 = 9.81;         // magnitude of gravity
+  // Camera intrinsics and distortion: the factors are differentiable in them, but estimating
+  // them is not validated yet (the intrinsics issue); keep false.
+  bool estimate_intrinsics = false;
+  int init_frames = 10;        // consecutive cam0 frames with a board pose to initialize
+  int min_tags = 2;            // tags a frame needs to be used at all
+  double gravity_m_s2 = 9.81;  // magnitude of gravity
   // Prior standard deviations where the configuration has no *_std keys.
   double extrinsic_rotation_prior_rad = 0.1;
   double extrinsic_translation_prior_m = 0.1;
@@ -67,7 +69,8 @@ struct EstimatorOptions {
   double bias_gyro_prior = 0.02;  // [rad/s] on the first state
   double bias_accel_prior = 0.2;  // [m/s^2] on the first state
   double velocity_prior = 0.5;    // [m/s] on the first state
-  int covariance_every = 30;      // solves between calibration covariances (0: never)
+  int covariance_every = 30;      // updates (cam0 frames) between calibration covariances
+                                  // (0: never)
 };
 
 // Checked at creation: a clear message naming the option.
