@@ -1,0 +1,233 @@
+// The estimator's internals, shared by estimator.cpp (data in, the main loop, buffers),
+// estimator_window.cpp (states, factors, solving, marginalization, covariance) and
+// estimator_startup.cpp (initialization and clock alignment). Private to src/core/estimator.
+#pragma once
+
+#include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
+#include <ceres/sphere_manifold.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+#include "mvis/camera/camera_model.h"
+#include "mvis/estimator/estimator.h"
+#include "mvis/estimator/initialization.h"
+#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/imu_factor.h"
+#include "mvis/factors/marginalization_factor.h"
+#include "mvis/factors/pose_prior_factor.h"
+#include "mvis/factors/tag_reprojection_factor.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+using Clock = std::chrono::steady_clock;
+
+struct ResidualRecord {
+  ceres::ResidualBlockId id = nullptr;
+  const ceres::CostFunction* cost = nullptr;
+  const ceres::LossFunction* loss = nullptr;
+  std::vector<double*> blocks;
+};
+
+// One window state. Its residual records are the factors whose oldest state it is: they are
+// marginalized with it.
+struct State {
+  TimeNs t = 0;
+  double pose[kPoseSize];
+  double speed_bias[kSpeedBiasSize];
+  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();  // base gyroscope reading at t
+  std::vector<ResidualRecord> residuals;
+  int frames = 0, corners = 0;
+
+  EstimatorState toEstimate() const {
+    EstimatorState s;
+    s.stamp_ns = t;
+    s.T_G_I = poseToSE3(pose);
+    s.v_G = Eigen::Vector3d(speed_bias);
+    s.bias_gyro = Eigen::Vector3d(speed_bias + 3);
+    s.bias_accel = Eigen::Vector3d(speed_bias + 6);
+    return s;
+  }
+};
+
+struct CameraBlocks {
+  double extrinsic[kPoseSize];  // T_C_I
+  double time_offset[1];        // [s]
+  double intrinsics[kIntrinsicsSize];
+};
+
+struct InitFrame {
+  TimeNs t = 0;  // base clock
+  SE3 T_G_I;
+  TagFrame frame;
+};
+
+inline double seconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
+
+}  // namespace estimator_internal
+
+using estimator_internal::CameraBlocks;
+using estimator_internal::Clock;
+using estimator_internal::InitFrame;
+using estimator_internal::ResidualRecord;
+using estimator_internal::seconds;
+using estimator_internal::State;
+
+struct Estimator::Impl {
+  Rig rig;
+  EstimatorOptions options;
+  std::vector<std::unique_ptr<CameraBlocks>> cameras;
+  double gravity[kGravitySize] = {0.0, 0.0, -9.81};
+  PoseManifold pose_manifold;
+  ceres::SphereManifold<3> sphere_manifold;
+  std::unique_ptr<ceres::LossFunction> huber;
+  std::unique_ptr<ceres::Problem> problem;
+  std::deque<std::unique_ptr<State>> states;
+  ResidualRecord prior;  // the marginalization prior, if any (prior.id != nullptr)
+  std::deque<ImuMeasurement> imu;
+  std::deque<TagFrame> base_frames;
+  std::vector<std::deque<TagFrame>> other_frames;  // per camera (index 0 unused)
+  std::vector<InitFrame> init;
+  // Before initialization: board rotations R_G_C per camera (camera-clock stamps), for aligning
+  // the clocks with the gyroscope.
+  std::vector<std::deque<std::pair<TimeNs, Eigen::Matrix3d>>> board_rotations;
+  bool clocks_aligned = false;
+  std::vector<EstimatorState> past;
+  UpdateCallback callback;
+  PropagationCallback propagation_callback;
+  std::shared_ptr<ImuPreintegration> propagation;  // from the newest state on
+  TimeNs propagation_from = std::numeric_limits<TimeNs>::min();
+  EstimatorCounters counters;
+  bool initialized = false;
+  std::string clock_message;  // what the clock alignment changed, if anything
+  std::string status_text = "waiting for data";
+  TimeNs last_imu = std::numeric_limits<TimeNs>::min();
+  std::vector<TimeNs> last_frame;
+  std::optional<std::vector<CameraCalibrationStd>> camera_std;
+  int solves_since_covariance = 0;
+  int frames_since_solve = 0;
+
+  Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
+    for (const auto& cam : rig.cameras) {
+      auto blocks = std::make_unique<CameraBlocks>();
+      se3ToPose(cam.T_cam_imu, blocks->extrinsic);
+      blocks->time_offset[0] = cam.timeshift_cam_imu;
+      for (int i = 0; i < 4; ++i) {
+        blocks->intrinsics[i] = cam.intrinsics[i];
+        blocks->intrinsics[4 + i] = cam.distortion_coeffs[i];
+      }
+      cameras.push_back(std::move(blocks));
+    }
+    if (options.huber_sigma > 0.0) huber = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
+    other_frames.resize(rig.cameras.size());
+    board_rotations.resize(rig.cameras.size());
+    last_frame.assign(rig.cameras.size(), std::numeric_limits<TimeNs>::min());
+    newProblem();
+  }
+
+  void newProblem();
+
+  TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras[c]->time_offset[0]); }
+
+  // ---- data in ---------------------------------------------------------------------------
+  Status addImu(std::size_t sensor, const ImuMeasurement& m);
+
+  Status addTagFrame(const TagFrame& frame);
+
+  // ---- the main loop ---------------------------------------------------------------------
+  void process();
+
+  // The reading at t, interpolated between its neighbours (the nearest one outside the buffer).
+  ImuMeasurement readingAt(TimeNs t) const;
+
+  // IMU readings over [a, b] with interpolated readings at both ends.
+  std::vector<ImuMeasurement> imuBetween(TimeNs a, TimeNs b) const;
+
+  std::shared_ptr<ImuPreintegration> preintegrate(TimeNs a, TimeNs b, const Eigen::Vector3d& bg,
+                                                  const Eigen::Vector3d& ba) const;
+
+  // Whether t falls between two readings further apart than maxImuInterval().
+  bool insideImuGap(TimeNs t) const;
+
+  // Readings further apart than this are a gap (2.5 nominal periods).
+  double maxImuInterval() const;
+
+  Eigen::Vector3d gyroAt(TimeNs t) const { return readingAt(t).gyro; }
+
+  void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
+                 std::vector<double*> blocks);
+
+  void addStateBlocks(State* s);
+
+  void addCalibrationBlocks();
+
+  ceres::CostFunction* frameFactor(const TagFrame& frame, std::size_t k, State** owner,
+                                   std::vector<double*>* blocks, int* corners);
+
+  // Angular acceleration at t: slope of a line fitted to the gyroscope readings within 10 ms.
+  Eigen::Vector3d angularAcceleration(TimeNs t) const;
+
+  void addFrame(const TagFrame& frame, std::size_t k);
+
+  void addImuFactor(std::size_t k);
+
+  void addState(const TagFrame& frame, TimeNs t);
+
+  // Places every waiting frame of the other cameras that falls inside the window.
+  void attachOtherFrames();
+
+  // ---- initialization --------------------------------------------------------------------
+  // The camera's board pose with its current intrinsics.
+  bool boardPose(const TagFrame& frame, SE3* T_G_C) const;
+
+  void addInitFrame(TagFrame frame, TimeNs t);
+
+  // ---- clock alignment -------------------------------------------------------------------
+  // A camera's time offset may be far off (a driver stamping on arrival, another clock). Before
+  // initializing, each camera's angular velocity from consecutive board poses, rotated into the
+  // IMU frame with the extrinsic guess, is matched against the gyroscope over offsets within
+  // +-kAlignRange; a clear best match replaces the configured offset.
+  static constexpr TimeNs kAlignSpanNs = 1500000000;  // 1.5 s of board poses
+  static constexpr double kAlignRange = 0.3;          // [s]
+
+  void recordBoardRotation(std::size_t c, TimeNs stamp, const SE3& T_G_C);
+
+  // The offset correction of camera c [s], or 0 when the data do not decide it.
+  double clockCorrection(std::size_t c) const;
+
+  void alignClocks();
+
+  void initialize();
+
+  // IMU-rate state: the newest window state carried forward with the readings since.
+  void propagate(const ImuMeasurement& m);
+
+  // ---- solving and marginalization -------------------------------------------------------
+  SolveSummary solve(int iterations, double max_time_s = -1.0);
+
+  SolveSummary windowSummary() const;
+
+  void marginalizeOldest();
+
+  void publish(const SolveSummary& summary, Clock::time_point start);
+
+  // Calibration standard deviations, and the newest pose's covariance.
+  Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov);
+
+  void trimBuffers();
+
+  void resetAll();
+
+  Rig calibration() const;
+};
+
+}  // namespace mvis

@@ -1,0 +1,147 @@
+#include "estimator_impl.h"
+
+namespace mvis {
+
+bool Estimator::Impl::boardPose(const TagFrame& frame, SE3* T_G_C) const {
+  Camera current = rig.cameras[frame.camera];
+  const CameraBlocks& cb = *cameras[frame.camera];
+  current.intrinsics = Eigen::Vector4d(cb.intrinsics);
+  current.distortion_coeffs = Eigen::Vector4d(cb.intrinsics + 4);
+  return mvis::boardPose(current, *rig.target, frame, options.min_tags, T_G_C);
+}
+
+void Estimator::Impl::addInitFrame(TagFrame frame, TimeNs t) {
+  SE3 T_G_C;
+  if (!boardPose(frame, &T_G_C)) {
+    init.clear();
+    status_text = "initializing: " + rig.cameras[0].name + " sees too little of the board";
+    return;
+  }
+  recordBoardRotation(0, frame.stamp_ns, T_G_C);
+  // Consecutive frames only: a gap of more than 0.25 s starts over.
+  if (!init.empty() && t - init.back().t > fromSeconds(0.25)) init.clear();
+  init.push_back({t, T_G_C * poseToSE3(cameras[0]->extrinsic), std::move(frame)});
+  std::ostringstream s;
+  s << "initializing: " << init.size() << " of " << options.init_frames << " "
+    << rig.cameras[0].name << " frames with a board pose";
+  status_text = s.str();
+  if (static_cast<int>(init.size()) < options.init_frames) return;
+  if (!clocks_aligned) {
+    const auto& h = board_rotations[0];
+    if (h.size() < 2 || h.back().first - h.front().first < kAlignSpanNs) {
+      status_text += "; collecting 1.5 s of board poses to check the camera clocks";
+      return;
+    }
+    alignClocks();
+    clocks_aligned = true;
+  }
+  // A corrected cam0 clock moves the states later than the readings may reach yet: the next
+  // frame comes when they do.
+  if (init.empty() || imu.back().stamp_ns < init.back().t) return;
+  initialize();
+}
+
+static constexpr TimeNs kAlignSpanNs = 1500000000;  // 1.5 s of board poses
+static constexpr double kAlignRange = 0.3;          // [s]
+
+void Estimator::Impl::recordBoardRotation(std::size_t c, TimeNs stamp, const SE3& T_G_C) {
+  auto& h = board_rotations[c];
+  if (!h.empty() && stamp <= h.back().first) return;
+  h.emplace_back(stamp, T_G_C.rotation());
+  while (h.size() > 2 && h.back().first - h.front().first > 2 * kAlignSpanNs) h.pop_front();
+}
+
+double Estimator::Impl::clockCorrection(std::size_t c) const {
+  if (imu.size() < 2) return 0.0;
+  const Eigen::Matrix3d R_I_C = poseToSE3(cameras[c]->extrinsic).rotation().transpose();
+  return mvis::clockCorrection(
+      board_rotations[c], R_I_C, timeOffsetNs(c), imu.front().stamp_ns, imu.back().stamp_ns,
+      [this](TimeNs t) { return readingAt(t).gyro; }, kAlignRange);
+}
+
+void Estimator::Impl::alignClocks() {
+  std::ostringstream said;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const double delta = clockCorrection(c);
+    if (std::abs(delta) < 0.002) continue;  // within what the estimator refines anyway
+    cameras[c]->time_offset[0] += delta;
+    said << " " << rig.cameras[c].name << " " << (delta > 0 ? "+" : "") << delta * 1e3 << " ms";
+    if (c == 0) {
+      // The window states sit at cam0's frames: move them with its clock.
+      for (auto& f : init) f.t = f.frame.stamp_ns + timeOffsetNs(0);
+      if (!imu.empty() && init.front().t < imu.front().stamp_ns) init.clear();
+    }
+  }
+  if (!said.str().empty()) {
+    ++counters.clock_corrections;
+    clock_message = "time offsets corrected from the gyroscope:" + said.str();
+  }
+}
+
+void Estimator::Impl::initialize() {
+  const std::size_t n = init.size();
+  // Gravity and velocities from the board poses and the readings between them.
+  std::vector<std::shared_ptr<ImuPreintegration>> pre;
+  std::vector<const ImuPreintegration*> pre_ptrs;
+  std::vector<TimeNs> times;
+  std::vector<SE3> poses;
+  for (std::size_t i = 0; i < n; ++i) {
+    times.push_back(init[i].t);
+    poses.push_back(init[i].T_G_I);
+    if (i + 1 < n) {
+      pre.push_back(
+          preintegrate(init[i].t, init[i + 1].t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+      pre_ptrs.push_back(pre.back().get());
+    }
+  }
+  const GravityAlignment aligned = alignGravity(times, poses, pre_ptrs);
+  Eigen::Vector3d g = aligned.gravity;
+  if (!g.allFinite() || std::abs(g.norm() - options.gravity_m_s2) > 0.3 * options.gravity_m_s2) {
+    std::ostringstream s;
+    s << "initializing: gravity from the first " << n << " frames came out as " << g.norm()
+      << " m/s^2 (camera extrinsic or time offset far off, or IMU units wrong?); retrying";
+    status_text = s.str();
+    init.erase(init.begin(), init.begin() + n / 2);
+    return;
+  }
+  g *= options.gravity_m_s2 / g.norm();
+  Eigen::Map<Eigen::Vector3d>{gravity} = g;
+
+  newProblem();
+  states.clear();
+  addCalibrationBlocks();
+  for (std::size_t i = 0; i < n; ++i) {
+    auto s = std::make_unique<State>();
+    s->t = init[i].t;
+    s->gyro = gyroAt(s->t);
+    se3ToPose(init[i].T_G_I, s->pose);
+    Eigen::Map<Eigen::Vector3d>(s->speed_bias) = aligned.velocities[i];
+    std::fill(s->speed_bias + 3, s->speed_bias + 9, 0.0);
+    states.push_back(std::move(s));
+    addStateBlocks(states.back().get());
+  }
+  // A weak prior on the first state's velocity and biases fixes what the first seconds
+  // cannot see.
+  Eigen::Matrix<double, 9, 9> A_prior = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int i = 0; i < 3; ++i) {
+    A_prior(i, i) = 1.0 / options.velocity_prior;
+    A_prior(3 + i, 3 + i) = 1.0 / options.bias_gyro_prior;
+    A_prior(6 + i, 6 + i) = 1.0 / options.bias_accel_prior;
+  }
+  const Eigen::VectorXd b_prior =
+      Eigen::Map<const Eigen::Matrix<double, 9, 1>>(states.front()->speed_bias);
+  addRecord(states.front().get(), new ceres::NormalPrior(A_prior, b_prior), nullptr,
+            {states.front()->speed_bias});
+  for (std::size_t i = 0; i + 1 < n; ++i) addImuFactor(i);
+  for (std::size_t i = 0; i < n; ++i) addFrame(init[i].frame, i);
+  init.clear();
+  attachOtherFrames();
+  const auto start = Clock::now();
+  SolveSummary summary = solve(std::max(30, options.max_iterations), options.init_solve_time_s);
+  initialized = true;
+  status_text = clock_message.empty() ? "running" : "running; " + clock_message;
+  while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
+  publish(summary, start);
+}
+
+}  // namespace mvis

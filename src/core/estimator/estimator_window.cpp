@@ -1,0 +1,321 @@
+#include "estimator_impl.h"
+
+namespace mvis {
+
+void Estimator::Impl::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
+                                std::vector<double*> blocks) {
+  ResidualRecord r;
+  r.id = problem->AddResidualBlock(cost, loss, blocks);
+  r.cost = cost;
+  r.loss = loss;
+  r.blocks = std::move(blocks);
+  owner->residuals.push_back(std::move(r));
+}
+
+void Estimator::Impl::addStateBlocks(State* s) {
+  problem->AddParameterBlock(s->pose, kPoseSize, &pose_manifold);
+  problem->AddParameterBlock(s->speed_bias, kSpeedBiasSize);
+}
+
+void Estimator::Impl::addCalibrationBlocks() {
+  problem->AddParameterBlock(gravity, kGravitySize, &sphere_manifold);
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    CameraBlocks& b = *cameras[c];
+    problem->AddParameterBlock(b.extrinsic, kPoseSize, &pose_manifold);
+    problem->AddParameterBlock(b.time_offset, 1);
+    problem->AddParameterBlock(b.intrinsics, kIntrinsicsSize);
+    if (!options.estimate_extrinsics) problem->SetParameterBlockConstant(b.extrinsic);
+    if (!options.estimate_time_offsets) problem->SetParameterBlockConstant(b.time_offset);
+    if (!options.estimate_intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
+    // Priors from the configuration's *_std keys, or the options' defaults.
+    const Camera& cam = rig.cameras[c];
+    Eigen::Vector3d rot = Eigen::Vector3d::Constant(options.extrinsic_rotation_prior_rad);
+    Eigen::Vector3d pos = Eigen::Vector3d::Constant(options.extrinsic_translation_prior_m);
+    double td = options.time_offset_prior_s;
+    if (cam.std) {
+      for (int i = 0; i < 3; ++i) {
+        if (cam.std->rotation[i] > 0) rot[i] = cam.std->rotation[i];
+        if (cam.std->translation[i] > 0) pos[i] = cam.std->translation[i];
+      }
+      if (cam.std->timeshift_cam_imu > 0) td = cam.std->timeshift_cam_imu;
+    }
+    problem->AddResidualBlock(PosePriorFactor::fromStd(poseToSE3(b.extrinsic), rot, pos), nullptr,
+                              b.extrinsic);
+    problem->AddResidualBlock(new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / td),
+                                                     Eigen::Matrix<double, 1, 1>(b.time_offset[0])),
+                              nullptr, b.time_offset);
+  }
+}
+
+ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::size_t k,
+                                                  State** owner, std::vector<double*>* blocks,
+                                                  int* corners) {
+  const std::size_t c = frame.camera;
+  CameraBlocks& cb = *cameras[c];
+  auto obs = boardCorners(frame, *rig.target);
+  *corners = static_cast<int>(obs.size());
+  if (obs.empty()) return nullptr;
+  const DistortionModel model = rig.cameras[c].distortion_model;
+  State* sk = states[k].get();
+  *owner = sk;
+  // The frame's pose comes from the readings around it: inside a gap they are made up.
+  if (insideImuGap(frame.stamp_ns + timeOffsetNs(c))) {
+    ++counters.frames_in_imu_gap;
+    return nullptr;
+  }
+  if (options.interpolation == FrameInterpolation::kImu) {
+    const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
+    auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),
+                            Eigen::Vector3d(sk->speed_bias + 6));
+    const ImuMeasurement at = readingAt(t_a);
+    const auto anchor = TagReprojectionFactor::makeAnchor(
+        *pre, toSeconds(frame.stamp_ns - t_a), at.gyro, at.accel, angularAcceleration(t_a));
+    *blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
+                                                anchor);
+  }
+  if (c == 0) {
+    const double dt_nominal = toSeconds(frame.stamp_ns - sk->t);
+    *blocks = {sk->pose, sk->speed_bias, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    return TagReprojectionFactor::kinematic(model, std::move(obs), options.pixel_sigma_px,
+                                            dt_nominal, sk->gyro);
+  }
+  State* sk1 = states[k + 1].get();
+  *blocks = {sk->pose, sk1->pose, cb.extrinsic, cb.time_offset, cb.intrinsics};
+  return TagReprojectionFactor::poseBased(model, std::move(obs), options.pixel_sigma_px,
+                                          toSeconds(frame.stamp_ns - sk->t),
+                                          toSeconds(sk1->t - sk->t));
+}
+
+Eigen::Vector3d Estimator::Impl::angularAcceleration(TimeNs t) const {
+  const TimeNs half = fromSeconds(0.01);
+  double st = 0.0, stt = 0.0;
+  Eigen::Vector3d sw = Eigen::Vector3d::Zero(), stw = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (const auto& m : imu) {
+    if (m.stamp_ns < t - half) continue;
+    if (m.stamp_ns > t + half) break;
+    const double x = toSeconds(m.stamp_ns - t);
+    st += x;
+    stt += x * x;
+    sw += m.gyro;
+    stw += x * m.gyro;
+    ++n;
+  }
+  const double denominator = n * stt - st * st;
+  if (n < 3 || denominator <= 0.0) return Eigen::Vector3d::Zero();
+  return (n * stw - st * sw) / denominator;
+}
+
+void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
+  State* owner = nullptr;
+  std::vector<double*> blocks;
+  int corners = 0;
+  ceres::CostFunction* cost = frameFactor(frame, k, &owner, &blocks, &corners);
+  if (cost == nullptr) return;
+  addRecord(owner, cost, huber.get(), std::move(blocks));
+  owner->frames += 1;
+  owner->corners += corners;
+}
+
+void Estimator::Impl::addImuFactor(std::size_t k) {
+  State* a = states[k].get();
+  State* b = states[k + 1].get();
+  auto pre = preintegrate(a->t, b->t, Eigen::Vector3d(a->speed_bias + 3),
+                          Eigen::Vector3d(a->speed_bias + 6));
+  addRecord(a, new ImuFactor(pre), nullptr,
+            {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity});
+}
+
+void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
+  const State& last = *states.back();
+  const Eigen::Vector3d bg(last.speed_bias + 3), ba(last.speed_bias + 6);
+  auto pre = preintegrate(last.t, t, bg, ba);
+  auto s = std::make_unique<State>();
+  s->t = t;
+  s->gyro = gyroAt(t);
+  Eigen::Quaterniond q;
+  Eigen::Vector3d p, v;
+  pre->predict(poseRotation(last.pose), posePosition(last.pose), Eigen::Vector3d(last.speed_bias),
+               Eigen::Vector3d(gravity), &q, &p, &v);
+  se3ToPose(SE3(q, p), s->pose);
+  Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
+  std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
+  states.push_back(std::move(s));
+  addStateBlocks(states.back().get());
+  addRecord(states[states.size() - 2].get(), new ImuFactor(pre), nullptr,
+            {states[states.size() - 2]->pose, states[states.size() - 2]->speed_bias,
+             states.back()->pose, states.back()->speed_bias, gravity});
+  addFrame(frame, states.size() - 1);
+}
+
+void Estimator::Impl::attachOtherFrames() {
+  if (states.size() < 2) return;
+  for (std::size_t c = 1; c < other_frames.size(); ++c) {
+    auto& q = other_frames[c];
+    const TimeNs offset = timeOffsetNs(c);
+    while (!q.empty()) {
+      const TimeNs t = q.front().stamp_ns + offset;
+      if (t < states.front()->t) {
+        ++counters.frames_too_old;
+        q.pop_front();
+        continue;
+      }
+      if (t > states.back()->t) break;
+      std::size_t k = 0;
+      while (k + 2 < states.size() && states[k + 1]->t <= t) ++k;
+      addFrame(q.front(), k);
+      q.pop_front();
+    }
+  }
+}
+
+void Estimator::Impl::propagate(const ImuMeasurement& m) {
+  if (!propagation_callback || !initialized || states.empty()) return;
+  const State& newest = *states.back();
+  if (m.stamp_ns <= newest.t) return;
+  const Eigen::Vector3d bg(newest.speed_bias + 3), ba(newest.speed_bias + 6);
+  if (!propagation || propagation_from != newest.t) {
+    propagation =
+        std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
+    for (const auto& r : imuBetween(newest.t, m.stamp_ns)) propagation->add(r);
+    propagation_from = newest.t;
+  } else {
+    propagation->add(m);
+  }
+  EstimatorState out;
+  out.stamp_ns = m.stamp_ns;
+  Eigen::Quaterniond q;
+  Eigen::Vector3d p, v;
+  propagation->predict(poseRotation(newest.pose), posePosition(newest.pose),
+                       Eigen::Vector3d(newest.speed_bias), Eigen::Vector3d(gravity), &q, &p, &v);
+  out.T_G_I = SE3(q, p);
+  out.v_G = v;
+  out.bias_gyro = bg;
+  out.bias_accel = ba;
+  propagation_callback(out);
+}
+
+SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  o.max_num_iterations = iterations;
+  o.max_solver_time_in_seconds = max_time_s > 0 ? max_time_s : options.max_solve_time_s;
+  o.num_threads = options.threads;
+  o.logging_type = ceres::SILENT;
+  ceres::Solver::Summary s;
+  ceres::Solve(o, problem.get(), &s);
+  ++counters.solves;
+  SolveSummary out = windowSummary();
+  out.iterations = static_cast<int>(s.iterations.size());
+  out.solve_s = s.total_time_in_seconds;
+  out.cost = s.final_cost;
+  out.usable = s.IsSolutionUsable();
+  return out;
+}
+
+SolveSummary Estimator::Impl::windowSummary() const {
+  SolveSummary out;
+  out.states = static_cast<int>(states.size());
+  for (const auto& st : states) {
+    out.frames += st->frames;
+    out.corners += st->corners;
+  }
+  return out;
+}
+
+void Estimator::Impl::marginalizeOldest() {
+  State* oldest = states.front().get();
+  Marginalizer m;
+  std::vector<const ResidualRecord*> records;
+  for (const auto& r : oldest->residuals) records.push_back(&r);
+  if (prior.id != nullptr) records.push_back(&prior);
+  for (const auto* r : records) {
+    for (double* block : r->blocks) m.setManifold(block, problem->GetManifold(block));
+    m.addResidual(r->cost, r->loss, r->blocks);
+  }
+  auto made = m.marginalize({oldest->pose, oldest->speed_bias});
+  // Remove the old prior and the state (with every residual on it).
+  if (prior.id != nullptr) problem->RemoveResidualBlock(prior.id);
+  prior = ResidualRecord{};
+  // Residual blocks one by one in their recorded order: Ceres's own removal of a parameter
+  // block's dependents walks a hash set, whose order (pointer values) would make results
+  // differ from run to run in the last digits, and the window amplifies that.
+  for (const auto& r : oldest->residuals) problem->RemoveResidualBlock(r.id);
+  problem->RemoveParameterBlock(oldest->pose);
+  problem->RemoveParameterBlock(oldest->speed_bias);
+  past.push_back(oldest->toEstimate());
+  states.pop_front();
+  if (!made.ok()) {
+    status_text = "marginalization failed (" + made.status().message() + "); prior dropped";
+    return;
+  }
+  MarginalizationFactor* factor = std::move(made).value().release();
+  prior.blocks = factor->parameterBlocks();
+  prior.cost = factor;
+  prior.id = problem->AddResidualBlock(factor, nullptr, prior.blocks);
+}
+
+void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point start) {
+  ++solves_since_covariance;
+  EstimatorUpdate u;
+  u.solve = summary;
+  u.state = states.back()->toEstimate();
+  u.gravity_G = Eigen::Vector3d(gravity);
+  u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
+  if (options.covariance_every > 0 && solves_since_covariance >= options.covariance_every) {
+    Eigen::Matrix<double, 6, 6> pose_cov;
+    if (covariance(&pose_cov).ok()) {
+      u.pose_covariance = pose_cov;
+      u.calibration_covariance_updated = true;
+    }
+  }
+  u.solve.total_s = seconds(start, Clock::now());
+  if (callback) callback(u);
+}
+
+Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
+  solves_since_covariance = 0;
+  if (states.empty()) return Status::Error("no state yet");
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = options.threads;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  double* newest = states.back()->pose;
+  blocks.emplace_back(newest, newest);
+  for (const auto& cb : cameras) {
+    for (const double* b : {cb->extrinsic, cb->time_offset, cb->intrinsics}) {
+      if (!problem->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
+    }
+  }
+  if (!cov.Compute(blocks, problem.get())) return Status::Error("covariance computation failed");
+  if (pose_cov != nullptr) cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+  std::vector<CameraCalibrationStd> out(cameras.size());
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const CameraBlocks& cb = *cameras[c];
+    if (!problem->IsParameterBlockConstant(cb.extrinsic)) {
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C;
+      cov.GetCovarianceBlockInTangentSpace(cb.extrinsic, cb.extrinsic, C.data());
+      const Vector6d sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+      out[c].rotation = sd.head<3>();
+      out[c].translation = sd.tail<3>();
+    }
+    if (!problem->IsParameterBlockConstant(cb.time_offset)) {
+      double v = 0.0;
+      cov.GetCovarianceBlock(cb.time_offset, cb.time_offset, &v);
+      out[c].timeshift_cam_imu = std::sqrt(std::max(v, 0.0));
+    }
+    if (!problem->IsParameterBlockConstant(cb.intrinsics)) {
+      Eigen::Matrix<double, 8, 8, Eigen::RowMajor> C;
+      cov.GetCovarianceBlock(cb.intrinsics, cb.intrinsics, C.data());
+      const Eigen::Matrix<double, 8, 1> sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+      out[c].intrinsics = sd.head<4>();
+      out[c].distortion_coeffs = sd.tail<4>();
+    }
+  }
+  camera_std = out;
+  return Status::Ok();
+}
+
+}  // namespace mvis
