@@ -98,9 +98,7 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
-  Interpolation interpolation() const { return interpolation_; }
   const std::vector<CornerObservation>& corners() const { return corners_; }
-  double pixelSigma() const { return sigma_; }
 
  private:
   TagReprojectionFactor(Interpolation interpolation, DistortionModel model,

@@ -178,7 +178,8 @@ struct Estimator::Impl {
 
   void addFrame(const TagFrame& frame, std::size_t k);
 
-  void addImuFactor(std::size_t k);
+  // The IMU factor between states k and k+1, on readings preintegrated at state k's biases.
+  void addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
 
   void addState(const TagFrame& frame, TimeNs t);
 

@@ -132,7 +132,8 @@ void Estimator::Impl::initialize() {
       Eigen::Map<const Eigen::Matrix<double, 9, 1>>(states.front()->speed_bias);
   addRecord(states.front().get(), new ceres::NormalPrior(A_prior, b_prior), nullptr,
             {states.front()->speed_bias});
-  for (std::size_t i = 0; i + 1 < n; ++i) addImuFactor(i);
+  // The states' biases start at zero, the preintegrations' linearization point above.
+  for (std::size_t i = 0; i + 1 < n; ++i) addImuFactor(i, pre[i]);
   for (std::size_t i = 0; i < n; ++i) addFrame(init[i].frame, i);
   init.clear();
   attachOtherFrames();

@@ -118,12 +118,10 @@ void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
   owner->corners += corners;
 }
 
-void Estimator::Impl::addImuFactor(std::size_t k) {
+void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre) {
   State* a = states[k].get();
   State* b = states[k + 1].get();
-  auto pre = preintegrate(a->t, b->t, Eigen::Vector3d(a->speed_bias + 3),
-                          Eigen::Vector3d(a->speed_bias + 6));
-  addRecord(a, new ImuFactor(pre), nullptr,
+  addRecord(a, new ImuFactor(std::move(pre)), nullptr,
             {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity});
 }
 
@@ -143,9 +141,7 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
   states.push_back(std::move(s));
   addStateBlocks(states.back().get());
-  addRecord(states[states.size() - 2].get(), new ImuFactor(pre), nullptr,
-            {states[states.size() - 2]->pose, states[states.size() - 2]->speed_bias,
-             states.back()->pose, states.back()->speed_bias, gravity});
+  addImuFactor(states.size() - 2, pre);
   addFrame(frame, states.size() - 1);
 }
 

@@ -13,7 +13,7 @@ namespace {
 // (or dtheta_k+1, dp_k+1 6-11 for pose-based); gravity 15-17; dtheta_e, dp_e 18-23; t_d 24.
 constexpr int kStageDim = 25;
 constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
-using Jet19 = ceres::Jet<double, kStageDim>;
+using StageJet = ceres::Jet<double, kStageDim>;
 
 template <typename T>
 using Mat3 = Eigen::Matrix<T, 3, 3>;
@@ -35,15 +35,15 @@ Vec3<T> logT(const Mat3<T>& R) {
 }
 
 // Rotation R Exp(delta) with delta the tangent directions first..first+2.
-Mat3<Jet19> perturbRotation(const Eigen::Quaterniond& q, int first) {
-  Vec3<Jet19> delta;
-  for (int i = 0; i < 3; ++i) delta[i] = Jet19(0.0, first + i);
-  return q.toRotationMatrix().cast<Jet19>() * expT(delta);
+Mat3<StageJet> perturbRotation(const Eigen::Quaterniond& q, int first) {
+  Vec3<StageJet> delta;
+  for (int i = 0; i < 3; ++i) delta[i] = StageJet(0.0, first + i);
+  return q.toRotationMatrix().cast<StageJet>() * expT(delta);
 }
 
-Vec3<Jet19> perturbVector(const double* x, int first) {
-  Vec3<Jet19> out;
-  for (int i = 0; i < 3; ++i) out[i] = Jet19(x[i], first + i);
+Vec3<StageJet> perturbVector(const double* x, int first) {
+  Vec3<StageJet> out;
+  for (int i = 0; i < 3; ++i) out[i] = StageJet(x[i], first + i);
   return out;
 }
 
@@ -134,55 +134,56 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
   // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
   const double* pose_k = parameters[0];
-  const Mat3<Jet19> R_k = perturbRotation(poseRotation(pose_k), 0);
-  const Vec3<Jet19> p_k = perturbVector(pose_k + 4, 3);
-  const Jet19 t_d(parameters[n_blocks - 1][0], kTimeOffsetJet);
-  const Jet19 dt = Jet19(dt_nominal_) + t_d;
+  const Mat3<StageJet> R_k = perturbRotation(poseRotation(pose_k), 0);
+  const Vec3<StageJet> p_k = perturbVector(pose_k + 4, 3);
+  const StageJet t_d(parameters[n_blocks - 1][0], kTimeOffsetJet);
+  const StageJet dt = StageJet(dt_nominal_) + t_d;
 
-  Mat3<Jet19> R;  // R_G_I(t)
-  Vec3<Jet19> p;  // p_G_I(t)
+  Mat3<StageJet> R;  // R_G_I(t)
+  Vec3<StageJet> p;  // p_G_I(t)
   if (interpolation_ == Interpolation::kKinematic) {
-    const Vec3<Jet19> v = perturbVector(parameters[1], 6);
-    const Vec3<Jet19> b_g = perturbVector(parameters[1] + 3, 9);
-    const Vec3<Jet19> w = gyro_k_.cast<Jet19>() - b_g;
-    R = R_k * expT<Jet19>(w * dt);
+    const Vec3<StageJet> v = perturbVector(parameters[1], 6);
+    const Vec3<StageJet> b_g = perturbVector(parameters[1] + 3, 9);
+    const Vec3<StageJet> w = gyro_k_.cast<StageJet>() - b_g;
+    R = R_k * expT<StageJet>(w * dt);
     p = p_k + v * dt;
   } else if (interpolation_ == Interpolation::kPoseBased) {
     const double* pose_k1 = parameters[1];
-    const Mat3<Jet19> R_k1 = perturbRotation(poseRotation(pose_k1), 6);
-    const Vec3<Jet19> p_k1 = perturbVector(pose_k1 + 4, 9);
-    const Jet19 s = dt / interval_;
-    const Mat3<Jet19> R_rel = R_k.transpose() * R_k1;
-    R = R_k * expT<Jet19>(logT(R_rel) * s);
+    const Mat3<StageJet> R_k1 = perturbRotation(poseRotation(pose_k1), 6);
+    const Vec3<StageJet> p_k1 = perturbVector(pose_k1 + 4, 9);
+    const StageJet s = dt / interval_;
+    const Mat3<StageJet> R_rel = R_k.transpose() * R_k1;
+    R = R_k * expT<StageJet>(logT(R_rel) * s);
     p = p_k + (p_k1 - p_k) * s;
   } else {
     const ImuAnchor& a = anchor_;
-    const Vec3<Jet19> v = perturbVector(parameters[1], 6);
-    const Vec3<Jet19> b_g = perturbVector(parameters[1] + 3, 9);
-    const Vec3<Jet19> b_a = perturbVector(parameters[1] + 6, 12);
-    const Vec3<Jet19> g = perturbVector(parameters[2], 15);
-    const Vec3<Jet19> dbg = b_g - a.bias_gyro0.cast<Jet19>();
-    const Vec3<Jet19> dba = b_a - a.bias_accel0.cast<Jet19>();
-    const Mat3<Jet19> dR =
-        a.dR.toRotationMatrix().cast<Jet19>() * expT<Jet19>(a.J_R_bg.cast<Jet19>() * dbg);
-    const Vec3<Jet19> dp =
-        a.dp.cast<Jet19>() + a.J_p_bg.cast<Jet19>() * dbg + a.J_p_ba.cast<Jet19>() * dba;
-    const Vec3<Jet19> dv =
-        a.dv.cast<Jet19>() + a.J_v_bg.cast<Jet19>() * dbg + a.J_v_ba.cast<Jet19>() * dba;
-    const Jet19 T(a.T_a);
-    const Mat3<Jet19> R_a = R_k * dR;
-    const Vec3<Jet19> p_a = p_k + v * T + g * (Jet19(0.5) * T * T) + R_k * dp;
-    const Vec3<Jet19> v_a = v + g * T + R_k * dv;
-    const Vec3<Jet19> w = a.gyro.cast<Jet19>() - b_g;
-    const Vec3<Jet19> acc = R_a * (a.accel.cast<Jet19>() - b_a) + g;
-    R = R_a * expT<Jet19>(w * dt + a.angular_acceleration.cast<Jet19>() * (Jet19(0.5) * dt * dt));
-    p = p_a + v_a * dt + acc * (Jet19(0.5) * dt * dt);
+    const Vec3<StageJet> v = perturbVector(parameters[1], 6);
+    const Vec3<StageJet> b_g = perturbVector(parameters[1] + 3, 9);
+    const Vec3<StageJet> b_a = perturbVector(parameters[1] + 6, 12);
+    const Vec3<StageJet> g = perturbVector(parameters[2], 15);
+    const Vec3<StageJet> dbg = b_g - a.bias_gyro0.cast<StageJet>();
+    const Vec3<StageJet> dba = b_a - a.bias_accel0.cast<StageJet>();
+    const Mat3<StageJet> dR =
+        a.dR.toRotationMatrix().cast<StageJet>() * expT<StageJet>(a.J_R_bg.cast<StageJet>() * dbg);
+    const Vec3<StageJet> dp =
+        a.dp.cast<StageJet>() + a.J_p_bg.cast<StageJet>() * dbg + a.J_p_ba.cast<StageJet>() * dba;
+    const Vec3<StageJet> dv =
+        a.dv.cast<StageJet>() + a.J_v_bg.cast<StageJet>() * dbg + a.J_v_ba.cast<StageJet>() * dba;
+    const StageJet T(a.T_a);
+    const Mat3<StageJet> R_a = R_k * dR;
+    const Vec3<StageJet> p_a = p_k + v * T + g * (StageJet(0.5) * T * T) + R_k * dp;
+    const Vec3<StageJet> v_a = v + g * T + R_k * dv;
+    const Vec3<StageJet> w = a.gyro.cast<StageJet>() - b_g;
+    const Vec3<StageJet> acc = R_a * (a.accel.cast<StageJet>() - b_a) + g;
+    R = R_a * expT<StageJet>(w * dt +
+                             a.angular_acceleration.cast<StageJet>() * (StageJet(0.5) * dt * dt));
+    p = p_a + v_a * dt + acc * (StageJet(0.5) * dt * dt);
   }
   const double* extrinsic = parameters[n_blocks - 2];
-  const Mat3<Jet19> R_CI = perturbRotation(poseRotation(extrinsic), kExtrinsicJet);
-  const Vec3<Jet19> p_CI = perturbVector(extrinsic + 4, kExtrinsicJet + 3);
-  const Mat3<Jet19> R_CG = R_CI * R.transpose();
-  const Vec3<Jet19> t_CG = p_CI - R_CG * p;
+  const Mat3<StageJet> R_CI = perturbRotation(poseRotation(extrinsic), kExtrinsicJet);
+  const Vec3<StageJet> p_CI = perturbVector(extrinsic + 4, kExtrinsicJet + 3);
+  const Mat3<StageJet> R_CG = R_CI * R.transpose();
+  const Vec3<StageJet> t_CG = p_CI - R_CG * p;
 
   // Stage 2: each corner. p_C = R_CG p_G + t_CG is linear in p_G, so its derivatives are
   // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
