@@ -9,9 +9,15 @@
 //   extrinsic   as pose                 T_C_I of a camera (p_C = T_C_I p_I)
 //   time_offset [t_d]                   [s], t_imu0 = t_cam + t_d
 //   intrinsics  [fu fv pu pv d0 d1 d2 d3]  [px] and the distortion coefficients
+//   aux_state   [v(3) b_g(3) b_a(3)]    an auxiliary IMU's velocity and biases at a window time
+//               (its own frame's biases; v in the world frame), or [b_g(3) b_a(3)] with the
+//               rigid-velocity model (aux_imu_factor.h)
+//   aux extrinsic as pose               T_i_b of an auxiliary IMU (p_imui = T_i_b p_imu0)
+//   gyro extrinsic [qx qy qz qw]        the rotation of T_i_b of a gyroscope (RotationManifold)
+//   gyro bias   [b_g(3)]                a gyroscope's bias at a window time [rad/s]
 //
-// Poses are perturbed on the right: Plus([q, p], [dtheta, dp]) = [q Exp(dtheta), p + dp].
-// PoseManifold's PlusJacobian is the lift [I6; 0] rather than the true derivative of the
+// Poses (and rotations) are perturbed on the right: Plus([q, p], [dtheta, dp]) = [q Exp(dtheta), p
+// + dp]. PoseManifold's PlusJacobian is the lift [I6; 0] rather than the true derivative of the
 // quaternion: every cost function touching a pose block writes the Jacobian in the tangent
 // [dtheta, dp] into its first six columns and zero into the seventh, so that Ceres's product
 // (ambient Jacobian) x (PlusJacobian) is the tangent Jacobian. Automatic differentiation through
@@ -28,12 +34,24 @@
 namespace mvis {
 
 constexpr int kPoseSize = 7, kPoseTangent = 6, kSpeedBiasSize = 9, kGravitySize = 3,
-              kIntrinsicsSize = 8;
+              kIntrinsicsSize = 8, kRotationSize = 4;
 
 class PoseManifold final : public ceres::Manifold {
  public:
   int AmbientSize() const override { return kPoseSize; }
   int TangentSize() const override { return kPoseTangent; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+// A rotation block [qx qy qz qw], perturbed on the right, PlusJacobian the lift [I3; 0] (the
+// same contract as PoseManifold).
+class RotationManifold final : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return kRotationSize; }
+  int TangentSize() const override { return 3; }
   bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
   bool PlusJacobian(const double* x, double* jacobian) const override;
   bool Minus(const double* y, const double* x, double* y_minus_x) const override;

@@ -31,4 +31,30 @@ bool PoseManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
   return true;
 }
 
+bool RotationManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  Eigen::Map<Eigen::Quaterniond>{x_plus_delta} =
+      (poseRotation(x) * lie::expQuat(Eigen::Vector3d(delta))).normalized();
+  return true;
+}
+
+bool RotationManifold::PlusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 4, 3, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J.topRows<3>().setIdentity();
+  return true;
+}
+
+bool RotationManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  Eigen::Map<Eigen::Vector3d>{y_minus_x} =
+      lie::logQuat(poseRotation(x).conjugate() * poseRotation(y));
+  return true;
+}
+
+bool RotationManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 3, 4, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J.leftCols<3>().setIdentity();
+  return true;
+}
+
 }  // namespace mvis

@@ -1,10 +1,8 @@
 #include "mvis/factors/tag_reprojection_factor.h"
 
-#include <ceres/jet.h>
-#include <ceres/rotation.h>
-
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/state_blocks.h"
+#include "tangent_jet.h"
 
 namespace mvis {
 namespace {
@@ -15,36 +13,16 @@ constexpr int kStageDim = 25;
 constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
 using StageJet = ceres::Jet<double, kStageDim>;
 
-template <typename T>
-using Mat3 = Eigen::Matrix<T, 3, 3>;
-template <typename T>
-using Vec3 = Eigen::Matrix<T, 3, 1>;
+using tangent_jet::expT;
+using tangent_jet::logT;
+using tangent_jet::Mat3;
+using tangent_jet::Vec3;
 
-template <typename T>
-Mat3<T> expT(const Vec3<T>& w) {
-  Mat3<T> R;
-  ceres::AngleAxisToRotationMatrix(w.data(), R.data());  // column major, as Eigen
-  return R;
-}
-
-template <typename T>
-Vec3<T> logT(const Mat3<T>& R) {
-  Vec3<T> w;
-  ceres::RotationMatrixToAngleAxis(R.data(), w.data());
-  return w;
-}
-
-// Rotation R Exp(delta) with delta the tangent directions first..first+2.
 Mat3<StageJet> perturbRotation(const Eigen::Quaterniond& q, int first) {
-  Vec3<StageJet> delta;
-  for (int i = 0; i < 3; ++i) delta[i] = StageJet(0.0, first + i);
-  return q.toRotationMatrix().cast<StageJet>() * expT(delta);
+  return tangent_jet::perturbRotation<StageJet>(q, first);
 }
-
 Vec3<StageJet> perturbVector(const double* x, int first) {
-  Vec3<StageJet> out;
-  for (int i = 0; i < 3; ++i) out[i] = StageJet(x[i], first + i);
-  return out;
+  return tangent_jet::perturbVector<StageJet>(x, first);
 }
 
 }  // namespace

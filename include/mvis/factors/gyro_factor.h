@@ -1,0 +1,54 @@
+// Auxiliary-gyroscope factor between window states i and j (report Sec. 3.3, Eq. 44).
+//
+// As for auxiliary IMUs (aux_imu_factor.h), gyroscope state k belongs to the gyroscope-clock time
+// tau_k = t_k - t_d0,k, t_d0,k its time offset (t_imu0 = t_gyro + t_d) when that state was made.
+// The readings are preintegrated (rotation only: ImuPreintegration with the accelerometer unused)
+// over [tau_i, tau_j]; they happened at base times t_k + delta_k, delta_k = t_d - t_d0,k, where
+// the base rotations R_k' are the states' shifted as in base_motion.h.
+// The gyroscope frame {A} follows through the extrinsic rotation R_AI of T_i_b (Eq. 44):
+//   R_G_A,k = R_k' R_AI^T
+// With the delta corrected to the gyroscope bias of state i (Eq. 32):
+//   r_theta = Log(dR(b^A_g,i)^T R_G_A,i^T R_G_A,j)
+//   r_bg    = b^A_g,j - b^A_g,i   (the bias random walk)
+// whitened by the rotation and gyroscope-bias rows and columns of the preintegrated covariance.
+//
+// Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], bias_i [3],
+// bias_j [3], extrinsic rotation [4] (the quaternion of T_i_b, RotationManifold),
+// time_offset [1]. A gyroscope's translation does not enter: it is not calibrated (report
+// Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces
+// (tangent lift convention of state_blocks.h).
+#pragma once
+
+#include <ceres/cost_function.h>
+
+#include <memory>
+
+#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/factors/base_motion.h"
+
+namespace mvis {
+
+class GyroFactor final : public ceres::CostFunction {
+ public:
+  // `pre`: the gyroscope readings over the interval (accelerometer zero), linearized at the
+  // bias of state i; `time_offset0_i`, `time_offset0_j`: t_d0,i and t_d0,j [s]; `base_i`,
+  // `base_j`: the base motion at t_i, t_j.
+  GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
+             double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  const ImuPreintegration& preintegration() const { return *pre_; }
+
+ private:
+  template <typename T>
+  void residual(double const* const* parameters, T* r) const;
+
+  std::shared_ptr<const ImuPreintegration> pre_;
+  double time_offset0_i_, time_offset0_j_;
+  BaseMotion base_i_, base_j_;
+  Eigen::Matrix<double, 6, 6> sqrt_information_;
+};
+
+}  // namespace mvis
