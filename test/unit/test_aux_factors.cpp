@@ -2,7 +2,7 @@
 // true states and calibration is far below the noise (also when the factor was made with a
 // time offset 2 ms off the truth, which the base-pose shift must absorb), a wrong extrinsic or
 // time offset shows in the residual, and the Jacobians match central differences through the
-// manifolds, for both aux-velocity models.
+// manifolds, for both aux-velocity models; the gyroscope's rotation prior likewise.
 #include <ceres/sphere_manifold.h>
 #include <gtest/gtest.h>
 
@@ -13,6 +13,7 @@
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/aux_imu_factor.h"
 #include "mvis/factors/gyro_factor.h"
+#include "mvis/factors/rotation_prior_factor.h"
 #include "mvis/sim/imu_simulator.h"
 #include "sim_test_util.h"
 
@@ -242,6 +243,22 @@ TEST(GyroFactor, JacobiansMatchCentralDifferences) {
   const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
   const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
+}
+
+TEST(RotationPriorFactor, ResidualAndJacobian) {
+  const Eigen::Quaterniond mean = lie::expQuat(Eigen::Vector3d(0.3, -0.2, 0.5));
+  const RotationPriorFactor factor(mean, Eigen::Vector3d(0.01, 0.02, 0.04));
+  const Eigen::Quaterniond q = mean * lie::expQuat(Eigen::Vector3d(0.01, 0.02, -0.04));
+  const std::vector<std::vector<double>> blocks = {{q.x(), q.y(), q.z(), q.w()}};
+  const Eigen::VectorXd r = test::evaluateResiduals(factor, blocks);
+  EXPECT_NEAR(r[0], 1.0, 1e-9);
+  EXPECT_NEAR(r[1], 1.0, 1e-9);
+  EXPECT_NEAR(r[2], -1.0, 1e-9);
+  const RotationManifold rotation;
+  const std::vector<const ceres::Manifold*> manifolds = {&rotation};
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(factor, blocks, manifolds),
+                                   test::numericTangentJacobians(factor, blocks, manifolds, 1e-6)),
+            1e-6);
 }
 
 }  // namespace

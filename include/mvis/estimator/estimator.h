@@ -18,8 +18,17 @@
 // so a time offset far from the configured one (a driver stamping on arrival) is corrected before
 // the window starts. Until then `status()` says what it is waiting for.
 //
+// Auxiliary inertial sensors (report Sec. 3): every auxiliary IMU has a state [v, b_g, b_a] (or
+// [b_g, b_a] with the rigid-velocity model) and every gyroscope a bias state at each window time,
+// tied to the base states through the interpolated base pose and its extrinsic T_i_b and time
+// offset by an AuxImuFactor or GyroFactor (aux_imu_factor.h, gyro_factor.h). A sensor's states
+// start once its readings cover two window states, with velocities from the rigid-body relation
+// (Eq. 40) and biases fitted to the window's motion (Eq. 41-43); a sensor whose readings stop
+// for `aux_timeout_s` leaves the window with a warning and starts again when they return.
+//
 // Clocks: IMU readings of imu0 are in the base clock; a frame stamped t_c in camera c's clock
-// happened at t_c + t_d,c (Kalibr's timeshift_cam_imu).
+// happened at t_c + t_d,c (Kalibr's timeshift_cam_imu); a reading stamped t_i in inertial sensor
+// i's clock happened at t_i + time_offset_i.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,6 +40,7 @@
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/factors/aux_imu_model.h"
 #include "mvis/frontend/tag_observation.h"
 #include "mvis/rig/rig.h"
 
@@ -71,6 +81,17 @@ struct EstimatorOptions {
   double velocity_prior = 0.5;    // [m/s] on the first state
   int covariance_every = 30;      // updates (cam0 frames) between calibration covariances
                                   // (0: never)
+  // Auxiliary IMUs and gyroscopes.
+  AuxImuModel aux_imu_model = AuxImuModel::kVelocityState;  // kRigidVelocity: report App. B
+  bool estimate_aux_extrinsics = true;    // T_i_b of every aux IMU (rotation only for gyros)
+  bool estimate_aux_time_offsets = true;  // time_offset of every aux IMU and gyroscope
+  // Prior standard deviations where the configuration has no *_std keys.
+  double aux_rotation_prior_rad = 0.1;
+  double aux_translation_prior_m = 0.1;
+  double aux_time_offset_prior_s = 0.05;
+  double aux_velocity_prior = 0.5;  // [m/s] on an aux IMU's first velocity
+  double aux_timeout_s = 0.5;       // readings missing this long: the sensor leaves the window
+  double aux_max_gap_s = 0.1;       // longer holes between readings break a sensor's chain
 };
 
 // Checked at creation: a clear message naming the option.
@@ -117,6 +138,9 @@ struct EstimatorCounters {
   long resets = 0;
   long clock_corrections = 0;  // time offsets replaced from the gyroscope before initializing
   long solves = 0;
+  long aux_dropped = 0;   // aux readings dropped (non-finite, out of order, unknown sensor)
+  long aux_dropouts = 0;  // times an auxiliary sensor left the window (readings stopped)
+  long aux_starts = 0;    // times an auxiliary sensor's states started in the window
 };
 
 class Estimator {
@@ -131,9 +155,11 @@ class Estimator {
   Estimator(const Estimator&) = delete;
   Estimator& operator=(const Estimator&) = delete;
 
-  // A reading of inertial sensor `sensor` (0: the base IMU; auxiliary sensors are not used yet)
-  // stamped in its own clock. Errors describe a dropped reading; a stamp more than 1 s before
-  // the last one is taken as a restart (bag replay): the estimator resets and says so.
+  // A reading of inertial sensor `sensor` (0: the base IMU, else an auxiliary IMU or gyroscope;
+  // a gyroscope's accel is ignored) stamped in its own clock. Errors describe a dropped reading
+  // or a change worth a warning (an auxiliary sensor that stopped or came back); a base stamp
+  // more than 1 s before the last one is taken as a restart (bag replay): the estimator resets
+  // and says so.
   Status addImu(std::size_t sensor, const ImuMeasurement& measurement);
   // Tags of one camera frame (camera clock). Errors describe a dropped frame.
   Status addTagFrame(const TagFrame& frame);

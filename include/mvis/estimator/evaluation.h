@@ -17,16 +17,19 @@ namespace mvis {
 double positionRmse(const std::vector<EstimatorState>& estimate,
                     const std::vector<StampedPose>& truth);
 
-// Errors of one camera's calibration against the truth, in the estimate's tangent
-// (T_true = T_est Exp(delta)).
+// Errors of one camera's (or inertial sensor's) extrinsic and time offset against the truth, in
+// the estimate's tangent (T_true = T_est Exp(delta)).
 struct CameraCalibrationError {
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero();     // [rad]
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // [m]
   double time_offset = 0.0;                               // [s]
 };
 CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate);
+// Of T_i_b and time_offset (a gyroscope's translation is not calibrated: ignore it).
+CameraCalibrationError inertialError(const InertialSensor& truth, const InertialSensor& estimate);
 
-// A table of every camera's extrinsic rotation, translation and time offset: the initial
+// A table of every camera's and auxiliary inertial sensor's extrinsic rotation, translation (not
+// for gyroscopes) and time offset: the initial
 // guess's error, the estimate's error and the estimate's 3-sigma bound when `truth` is given;
 // otherwise the estimate and its 3-sigma.
 std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig* truth);

@@ -38,11 +38,10 @@
 #include <memory>
 
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/factors/aux_imu_model.h"
 #include "mvis/factors/base_motion.h"
 
 namespace mvis {
-
-enum class AuxImuModel { kVelocityState, kRigidVelocity };
 
 class AuxImuFactor final : public ceres::CostFunction {
  public:

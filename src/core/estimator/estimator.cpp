@@ -43,8 +43,19 @@ void Estimator::Impl::newProblem() {
   prior = ResidualRecord{};
 }
 
+Status Estimator::Impl::withWarning(Status s) {
+  if (!s.ok() || warning.empty()) return s;
+  Status out = Status::Error(warning);
+  warning.clear();
+  return out;
+}
+
 Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& m) {
-  if (sensor != 0) return Status::Ok();  // auxiliary sensors: not used yet
+  if (sensor >= rig.inertial.size()) {
+    ++counters.aux_dropped;
+    return Status::Error("reading of an unknown inertial sensor " + std::to_string(sensor));
+  }
+  if (sensor != 0) return addAuxReading(sensor, m);
   if (!m.gyro.allFinite() || !m.accel.allFinite()) {
     ++counters.imu_non_finite;
     return Status::Error(rig.inertial[0].name + ": non-finite reading dropped");
@@ -79,7 +90,7 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& m) {
       << " s; integrated across the gap with inflated noise";
     return Status::Error(s.str());
   }
-  return Status::Ok();
+  return withWarning(Status::Ok());
 }
 
 Status Estimator::Impl::addTagFrame(const TagFrame& frame) {
@@ -115,7 +126,7 @@ Status Estimator::Impl::addTagFrame(const TagFrame& frame) {
     }
   }
   process();
-  return Status::Ok();
+  return withWarning(Status::Ok());
 }
 
 void Estimator::Impl::process() {
@@ -136,6 +147,7 @@ void Estimator::Impl::process() {
       const auto start = Clock::now();
       addState(taken, t);
       attachOtherFrames();
+      extendAux();
       SolveSummary summary;
       if (++frames_since_solve >= options.solve_every) {
         summary = solve(options.max_iterations);
@@ -151,22 +163,33 @@ void Estimator::Impl::process() {
   }
 }
 
-ImuMeasurement Estimator::Impl::readingAt(TimeNs t) const {
-  auto it = std::lower_bound(imu.begin(), imu.end(), t,
+namespace estimator_internal {
+
+ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t) {
+  auto it = std::lower_bound(buffer.begin(), buffer.end(), t,
                              [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
-  if (it == imu.end()) return imu.back();
-  if (it->stamp_ns == t || it == imu.begin()) return *it;
+  if (it == buffer.end()) return buffer.back();
+  if (it->stamp_ns == t || it == buffer.begin()) return *it;
   return interpolateMeasurement(*(it - 1), *it, t);
 }
 
-std::vector<ImuMeasurement> Estimator::Impl::imuBetween(TimeNs a, TimeNs b) const {
+std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
+                                            TimeNs b) {
   std::vector<ImuMeasurement> out;
-  out.push_back(readingAt(a));
-  auto it = std::upper_bound(imu.begin(), imu.end(), a,
+  out.push_back(readingIn(buffer, a));
+  auto it = std::upper_bound(buffer.begin(), buffer.end(), a,
                              [](TimeNs s, const ImuMeasurement& m) { return s < m.stamp_ns; });
-  for (; it != imu.end() && it->stamp_ns < b; ++it) out.push_back(*it);
-  out.push_back(readingAt(b));
+  for (; it != buffer.end() && it->stamp_ns < b; ++it) out.push_back(*it);
+  out.push_back(readingIn(buffer, b));
   return out;
+}
+
+}  // namespace estimator_internal
+
+ImuMeasurement Estimator::Impl::readingAt(TimeNs t) const { return readingIn(imu, t); }
+
+std::vector<ImuMeasurement> Estimator::Impl::imuBetween(TimeNs a, TimeNs b) const {
+  return readingsBetween(imu, a, b);
 }
 
 std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrate(TimeNs a, TimeNs b,
@@ -206,6 +229,7 @@ void Estimator::Impl::trimBuffers() {
   }
   keep_from -= fromSeconds(0.05);
   while (imu.size() > 2 && imu[1].stamp_ns < keep_from) imu.pop_front();
+  trimAuxBuffers();
 }
 
 void Estimator::Impl::resetAll() {
@@ -216,6 +240,12 @@ void Estimator::Impl::resetAll() {
   for (auto& q : other_frames) q.clear();
   init.clear();
   for (auto& h : board_rotations) h.clear();
+  for (auto& a : aux) {
+    a->readings.clear();
+    a->last = std::numeric_limits<TimeNs>::min();
+    a->stopped = false;
+  }
+  warning.clear();
   clocks_aligned = false;
   initialized = false;
   last_imu = std::numeric_limits<TimeNs>::min();
@@ -233,6 +263,23 @@ Rig Estimator::Impl::calibration() const {
     cam.intrinsics = Eigen::Vector4d(cb.intrinsics);
     cam.distortion_coeffs = Eigen::Vector4d(cb.intrinsics + 4);
     if (camera_std) cam.std = (*camera_std)[c];
+  }
+  for (const auto& a : aux) {
+    InertialSensor& s = out.inertial[a->sensor];
+    if (a->gyro) {
+      s.T_i_b.q = Eigen::Quaterniond(poseRotation(a->rotation)).normalized();
+    } else {
+      s.T_i_b = poseToSE3(a->extrinsic);
+    }
+    s.time_offset = a->time_offset[0];
+    if (a->std) {
+      // Keep what the configuration says of the intrinsics' uncertainty.
+      InertialCalibrationStd sd = s.std ? *s.std : InertialCalibrationStd{};
+      sd.rotation = a->std->rotation;
+      sd.translation = a->std->translation;
+      sd.time_offset = a->std->time_offset;
+      s.std = sd;
+    }
   }
   return out;
 }

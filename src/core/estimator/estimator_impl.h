@@ -19,6 +19,8 @@
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/initialization.h"
 #include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/aux_imu_factor.h"
+#include "mvis/factors/gyro_factor.h"
 #include "mvis/factors/imu_factor.h"
 #include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/pose_prior_factor.h"
@@ -36,6 +38,13 @@ struct ResidualRecord {
   std::vector<double*> blocks;
 };
 
+// An auxiliary sensor's state at one window time (state_blocks.h: aux_state or gyro bias).
+struct AuxState {
+  double x[9];       // [v b_g b_a], [b_g b_a] (rigid-velocity model) or [b_g] (gyroscope)
+  double td0 = 0.0;  // the sensor's time offset when this state was made [s]
+  TimeNs tau = 0;    // its time in the sensor's clock: t - td0
+};
+
 // One window state. Its residual records are the factors whose oldest state it is: they are
 // marginalized with it.
 struct State {
@@ -43,6 +52,9 @@ struct State {
   double pose[kPoseSize];
   double speed_bias[kSpeedBiasSize];
   Eigen::Vector3d gyro = Eigen::Vector3d::Zero();  // base gyroscope reading at t
+  BaseMotion motion;                               // base readings at t (auxiliary factors)
+  // Per auxiliary sensor (index sensor - 1): its state at t, or null while it has none.
+  std::vector<std::unique_ptr<AuxState>> aux;
   std::vector<ResidualRecord> residuals;
   int frames = 0, corners = 0;
 
@@ -63,11 +75,40 @@ struct CameraBlocks {
   double intrinsics[kIntrinsicsSize];
 };
 
+// An auxiliary IMU or gyroscope (rig.inertial[sensor], sensor >= 1): calibration blocks,
+// readings in its own clock, and what the estimator knows of it between its chains of states.
+struct AuxSensor {
+  std::size_t sensor = 0;
+  bool gyro = false;
+  int block_size = 9;              // of its AuxState::x
+  double extrinsic[kPoseSize];     // T_i_b (IMUs)
+  double rotation[kRotationSize];  // the rotation of T_i_b (gyroscopes)
+  double time_offset[1];           // [s], t_imu0 = t_i + time_offset
+  std::deque<ImuMeasurement> readings;
+  TimeNs last = std::numeric_limits<TimeNs>::min();
+  bool stopped = false;                                 // said to have left the window
+  Eigen::Vector3d bias_gyro = Eigen::Vector3d::Zero();  // last estimate, for a new chain
+  Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
+  std::optional<InertialCalibrationStd> std;
+
+  double* biasGyro(AuxState* s) const { return block_size == 9 ? s->x + 3 : s->x; }
+  double* biasAccel(AuxState* s) const { return block_size == 9 ? s->x + 6 : s->x + 3; }
+  double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
+};
+
 struct InitFrame {
   TimeNs t = 0;  // base clock
   SE3 T_G_I;
   TagFrame frame;
 };
+
+// The reading at t in a buffer of increasing stamps, interpolated between its neighbours (the
+// nearest one outside the buffer).
+ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t);
+
+// The readings over [a, b] with interpolated readings at both ends.
+std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
+                                            TimeNs b);
 
 inline double seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -75,9 +116,13 @@ inline double seconds(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace estimator_internal
 
+using estimator_internal::AuxSensor;
+using estimator_internal::AuxState;
 using estimator_internal::CameraBlocks;
 using estimator_internal::Clock;
 using estimator_internal::InitFrame;
+using estimator_internal::readingIn;
+using estimator_internal::readingsBetween;
 using estimator_internal::ResidualRecord;
 using estimator_internal::seconds;
 using estimator_internal::State;
@@ -87,7 +132,9 @@ struct Estimator::Impl {
   EstimatorOptions options;
   std::vector<std::unique_ptr<CameraBlocks>> cameras;
   double gravity[kGravitySize] = {0.0, 0.0, -9.81};
+  std::vector<std::unique_ptr<AuxSensor>> aux;  // index sensor - 1
   PoseManifold pose_manifold;
+  RotationManifold rotation_manifold;
   ceres::SphereManifold<3> sphere_manifold;
   std::unique_ptr<ceres::LossFunction> huber;
   std::unique_ptr<ceres::Problem> problem;
@@ -115,6 +162,7 @@ struct Estimator::Impl {
   std::optional<std::vector<CameraCalibrationStd>> camera_std;
   int solves_since_covariance = 0;
   int frames_since_solve = 0;
+  std::string warning;  // for the caller of the next addImu / addTagFrame
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
     for (const auto& cam : rig.cameras) {
@@ -128,6 +176,17 @@ struct Estimator::Impl {
       cameras.push_back(std::move(blocks));
     }
     if (options.huber_sigma > 0.0) huber = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
+    for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+      const InertialSensor& sensor = rig.inertial[i];
+      auto a = std::make_unique<AuxSensor>();
+      a->sensor = i;
+      a->gyro = sensor.type == InertialType::kGyroscope;
+      a->block_size = a->gyro ? 3 : AuxImuFactor::auxBlockSize(options.aux_imu_model);
+      se3ToPose(sensor.T_i_b, a->extrinsic);
+      Eigen::Map<Eigen::Quaterniond>{a->rotation} = sensor.T_i_b.q;
+      a->time_offset[0] = sensor.time_offset;
+      aux.push_back(std::move(a));
+    }
     other_frames.resize(rig.cameras.size());
     board_rotations.resize(rig.cameras.size());
     last_frame.assign(rig.cameras.size(), std::numeric_limits<TimeNs>::min());
@@ -182,6 +241,38 @@ struct Estimator::Impl {
   void addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
 
   void addState(const TagFrame& frame, TimeNs t);
+
+  // A new window state at base time t with its readings (pose and speed left to the caller).
+  std::unique_ptr<State> makeState(TimeNs t) const;
+
+  // ---- auxiliary sensors (estimator_aux.cpp) ---------------------------------------------
+  Status addAuxReading(std::size_t sensor, const ImuMeasurement& m);
+
+  // Gives every auxiliary sensor states at the window states its readings reach.
+  void extendAux();
+  void extendAux(AuxSensor& a);
+
+  // Starts sensor a's chain at window states k0..k1 (k1 > k0), all covered by its readings.
+  void startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1);
+
+  // Appends sensor a's state at window state k to its chain ending at k - 1.
+  void appendAuxState(AuxSensor& a, std::size_t k);
+
+  // Sensor a's readings over [tau_a, tau_b] (its clock), preintegrated at the given biases;
+  // null if they do not cover the interval or have a hole longer than aux_max_gap_s.
+  std::shared_ptr<ImuPreintegration> preintegrateAux(const AuxSensor& a, TimeNs tau_a, TimeNs tau_b,
+                                                     const Eigen::Vector3d& bg,
+                                                     const Eigen::Vector3d& ba) const;
+
+  // The factor between the states of sensor a at window states k and k + 1.
+  void addAuxFactor(AuxSensor& a, std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
+
+  void addAuxCalibrationBlocks();
+
+  void trimAuxBuffers();
+
+  // Status for the caller: `s`, or the pending warning if s is fine.
+  Status withWarning(Status s);
 
   // Places every waiting frame of the other cameras that falls inside the window.
   void attachOtherFrames();

@@ -111,9 +111,7 @@ void Estimator::Impl::initialize() {
   states.clear();
   addCalibrationBlocks();
   for (std::size_t i = 0; i < n; ++i) {
-    auto s = std::make_unique<State>();
-    s->t = init[i].t;
-    s->gyro = gyroAt(s->t);
+    auto s = makeState(init[i].t);
     se3ToPose(init[i].T_G_I, s->pose);
     Eigen::Map<Eigen::Vector3d>(s->speed_bias) = aligned.velocities[i];
     std::fill(s->speed_bias + 3, s->speed_bias + 9, 0.0);
@@ -137,9 +135,10 @@ void Estimator::Impl::initialize() {
   for (std::size_t i = 0; i < n; ++i) addFrame(init[i].frame, i);
   init.clear();
   attachOtherFrames();
+  initialized = true;  // auxiliary sensors join the window from here on
+  extendAux();
   const auto start = Clock::now();
   SolveSummary summary = solve(std::max(30, options.max_iterations), options.init_solve_time_s);
-  initialized = true;
   status_text = clock_message.empty() ? "running" : "running; " + clock_message;
   while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
   publish(summary, start);

@@ -45,6 +45,7 @@ void Estimator::Impl::addCalibrationBlocks() {
                                                      Eigen::Matrix<double, 1, 1>(b.time_offset[0])),
                               nullptr, b.time_offset);
   }
+  addAuxCalibrationBlocks();
 }
 
 ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::size_t k,
@@ -125,13 +126,23 @@ void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPrein
             {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity});
 }
 
+std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
+  auto s = std::make_unique<State>();
+  s->t = t;
+  const ImuMeasurement at = readingAt(t);
+  s->gyro = at.gyro;
+  s->motion.gyro = at.gyro;
+  s->motion.accel = at.accel;
+  s->motion.angular_acceleration = angularAcceleration(t);
+  s->aux.resize(aux.size());
+  return s;
+}
+
 void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   const State& last = *states.back();
   const Eigen::Vector3d bg(last.speed_bias + 3), ba(last.speed_bias + 6);
   auto pre = preintegrate(last.t, t, bg, ba);
-  auto s = std::make_unique<State>();
-  s->t = t;
-  s->gyro = gyroAt(t);
+  auto s = makeState(t);
   Eigen::Quaterniond q;
   Eigen::Vector3d p, v;
   pre->predict(poseRotation(last.pose), posePosition(last.pose), Eigen::Vector3d(last.speed_bias),
@@ -230,7 +241,16 @@ void Estimator::Impl::marginalizeOldest() {
     for (double* block : r->blocks) m.setManifold(block, problem->GetManifold(block));
     m.addResidual(r->cost, r->loss, r->blocks);
   }
-  auto made = m.marginalize({oldest->pose, oldest->speed_bias});
+  std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
+  for (std::size_t i = 0; i < aux.size(); ++i) {
+    AuxState* as = oldest->aux[i].get();
+    if (as == nullptr) continue;
+    leaving.push_back(as->x);
+    // The last estimate of the sensor's biases, for a chain that starts later.
+    aux[i]->bias_gyro = Eigen::Vector3d(aux[i]->biasGyro(as));
+    if (!aux[i]->gyro) aux[i]->bias_accel = Eigen::Vector3d(aux[i]->biasAccel(as));
+  }
+  auto made = m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
   // Remove the old prior and the state (with every residual on it).
   if (prior.id != nullptr) problem->RemoveResidualBlock(prior.id);
   prior = ResidualRecord{};
@@ -238,8 +258,7 @@ void Estimator::Impl::marginalizeOldest() {
   // block's dependents walks a hash set, whose order (pointer values) would make results
   // differ from run to run in the last digits, and the window amplifies that.
   for (const auto& r : oldest->residuals) problem->RemoveResidualBlock(r.id);
-  problem->RemoveParameterBlock(oldest->pose);
-  problem->RemoveParameterBlock(oldest->speed_bias);
+  for (double* block : leaving) problem->RemoveParameterBlock(block);
   past.push_back(oldest->toEstimate());
   states.pop_front();
   if (!made.ok()) {
@@ -285,6 +304,12 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
       if (!problem->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
     }
   }
+  for (auto& a : aux) {
+    for (const double* b : {static_cast<const double*>(a->extrinsicBlock()),
+                            static_cast<const double*>(a->time_offset)}) {
+      if (!problem->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
+    }
+  }
   if (!cov.Compute(blocks, problem.get())) return Status::Error("covariance computation failed");
   if (pose_cov != nullptr) cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
   std::vector<CameraCalibrationStd> out(cameras.size());
@@ -311,6 +336,29 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
     }
   }
   camera_std = out;
+  for (auto& a : aux) {
+    InertialCalibrationStd sd;
+    const double* e = a->extrinsicBlock();
+    if (!problem->IsParameterBlockConstant(e)) {
+      if (a->gyro) {
+        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> C;
+        cov.GetCovarianceBlockInTangentSpace(e, e, C.data());
+        sd.rotation = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+      } else {
+        Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C;
+        cov.GetCovarianceBlockInTangentSpace(e, e, C.data());
+        const Vector6d v = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+        sd.rotation = v.head<3>();
+        sd.translation = v.tail<3>();
+      }
+    }
+    if (!problem->IsParameterBlockConstant(a->time_offset)) {
+      double v = 0.0;
+      cov.GetCovarianceBlock(a->time_offset, a->time_offset, &v);
+      sd.time_offset = std::sqrt(std::max(v, 0.0));
+    }
+    a->std = sd;
+  }
   return Status::Ok();
 }
 

@@ -29,74 +29,135 @@ double positionRmse(const std::vector<EstimatorState>& estimate,
   return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::quiet_NaN();
 }
 
-CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate) {
+namespace {
+
+// A sensor's extrinsic and time offset in a common shape: T (T_cam_imu or T_i_b), the offset
+// and their standard deviations.
+struct SpatialTemporal {
+  std::string name;
+  bool has_translation = true;  // a gyroscope's is not calibrated
+  SE3 T;
+  double time_offset = 0.0;
+  bool has_std = false;
+  Eigen::Vector3d rotation_std = Eigen::Vector3d::Zero(), translation_std = Eigen::Vector3d::Zero();
+  double time_offset_std = 0.0;
+};
+
+SpatialTemporal ofCamera(const Camera& c) {
+  SpatialTemporal s;
+  s.name = c.name;
+  s.T = c.T_cam_imu;
+  s.time_offset = c.timeshift_cam_imu;
+  if (c.std) {
+    s.has_std = true;
+    s.rotation_std = c.std->rotation;
+    s.translation_std = c.std->translation;
+    s.time_offset_std = c.std->timeshift_cam_imu;
+  }
+  return s;
+}
+
+SpatialTemporal ofInertial(const InertialSensor& i) {
+  SpatialTemporal s;
+  s.name = i.name;
+  s.has_translation = i.type != InertialType::kGyroscope;
+  s.T = i.T_i_b;
+  s.time_offset = i.time_offset;
+  if (i.std) {
+    s.has_std = true;
+    s.rotation_std = i.std->rotation;
+    s.translation_std = i.std->translation;
+    s.time_offset_std = i.std->time_offset;
+  }
+  return s;
+}
+
+CameraCalibrationError errorOf(const SpatialTemporal& truth, const SpatialTemporal& estimate) {
   CameraCalibrationError e;
-  e.rotation = lie::logQuat(estimate.T_cam_imu.q.conjugate() * truth.T_cam_imu.q);
-  e.translation = truth.T_cam_imu.p - estimate.T_cam_imu.p;
-  e.time_offset = truth.timeshift_cam_imu - estimate.timeshift_cam_imu;
+  e.rotation = lie::logQuat(estimate.T.q.conjugate() * truth.T.q);
+  e.translation = truth.T.p - estimate.T.p;
+  e.time_offset = truth.time_offset - estimate.time_offset;
   return e;
 }
 
-namespace {
-
-std::string row(const char* camera, const char* quantity, double a, double b, double c,
+std::string row(const char* sensor, const char* quantity, double a, double b, double c,
                 const char* last) {
   char line[160];
-  std::snprintf(line, sizeof(line), "%-6s %-18s %14.4f %14.4f %12.4f  %s\n", camera, quantity, a, b,
+  std::snprintf(line, sizeof(line), "%-6s %-18s %14.4f %14.4f %12.4f  %s\n", sensor, quantity, a, b,
                 c, last);
   return line;
 }
 
+std::string rows(const SpatialTemporal& ini, const SpatialTemporal& est,
+                 const SpatialTemporal* truth) {
+  constexpr double kDeg = 180.0 / M_PI;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const char* name = est.name.c_str();
+  const bool has_std = est.has_std;
+  const double rot3 = has_std ? 3.0 * est.rotation_std.norm() * kDeg : nan;
+  const double pos3 = has_std ? 3.0 * est.translation_std.norm() * 1e3 : nan;
+  const double td3 = has_std ? 3.0 * est.time_offset_std * 1e3 : nan;
+  std::string out;
+  if (truth != nullptr) {
+    const CameraCalibrationError e0 = errorOf(*truth, ini);
+    const CameraCalibrationError e1 = errorOf(*truth, est);
+    auto inside = [&](const Eigen::Vector3d& err, const Eigen::Vector3d& sd) {
+      if (!has_std) return "-";
+      for (int i = 0; i < 3; ++i) {
+        if (std::abs(err[i]) > 3.0 * sd[i]) return "no";
+      }
+      return "yes";
+    };
+    out += row(name, "rotation [deg]", e0.rotation.norm() * kDeg, e1.rotation.norm() * kDeg, rot3,
+               inside(e1.rotation, est.rotation_std));
+    if (est.has_translation) {
+      out += row(name, "translation [mm]", e0.translation.norm() * 1e3, e1.translation.norm() * 1e3,
+                 pos3, inside(e1.translation, est.translation_std));
+    }
+    const bool td_inside = has_std && std::abs(e1.time_offset) <= 3.0 * est.time_offset_std;
+    out += row(name, "time offset [ms]", std::abs(e0.time_offset) * 1e3,
+               std::abs(e1.time_offset) * 1e3, td3, has_std ? (td_inside ? "yes" : "no") : "-");
+  } else {
+    const double angle = lie::logQuat(ini.T.q.conjugate() * est.T.q).norm() * kDeg;
+    out += row(name, "rotation [deg]", 0.0, angle, rot3, "(change from initial)");
+    if (est.has_translation) {
+      out += row(name, "translation [mm]", 0.0, (est.T.p - ini.T.p).norm() * 1e3, pos3,
+                 "(change from initial)");
+    }
+    out += row(name, "time offset [ms]", ini.time_offset * 1e3, est.time_offset * 1e3, td3, "");
+  }
+  return out;
+}
+
 }  // namespace
 
+CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate) {
+  return errorOf(ofCamera(truth), ofCamera(estimate));
+}
+
+CameraCalibrationError inertialError(const InertialSensor& truth, const InertialSensor& estimate) {
+  return errorOf(ofInertial(truth), ofInertial(estimate));
+}
+
 std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig* truth) {
-  constexpr double kDeg = 180.0 / M_PI;
   std::string out;
   char header[160];
   if (truth != nullptr) {
-    std::snprintf(header, sizeof(header), "%-6s %-18s %14s %14s %12s  %s\n", "camera", "quantity",
+    std::snprintf(header, sizeof(header), "%-6s %-18s %14s %14s %12s  %s\n", "sensor", "quantity",
                   "initial error", "final error", "3 sigma", "inside 3 sigma");
   } else {
-    std::snprintf(header, sizeof(header), "%-6s %-18s %14s %14s %12s\n", "camera", "quantity",
+    std::snprintf(header, sizeof(header), "%-6s %-18s %14s %14s %12s\n", "sensor", "quantity",
                   "initial", "estimate", "3 sigma");
   }
   out += header;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t c = 0; c < estimate.cameras.size(); ++c) {
-    const Camera& est = estimate.cameras[c];
-    const char* name = est.name.c_str();
-    const bool has_std = est.std.has_value();
-    const double rot3 = has_std ? 3.0 * est.std->rotation.norm() * kDeg : nan;
-    const double pos3 = has_std ? 3.0 * est.std->translation.norm() * 1e3 : nan;
-    const double td3 = has_std ? 3.0 * est.std->timeshift_cam_imu * 1e3 : nan;
-    if (truth != nullptr) {
-      const CameraCalibrationError e0 = cameraError(truth->cameras[c], initial.cameras[c]);
-      const CameraCalibrationError e1 = cameraError(truth->cameras[c], est);
-      auto inside = [&](const Eigen::Vector3d& err, const Eigen::Vector3d& sd) {
-        if (!has_std) return "-";
-        for (int i = 0; i < 3; ++i) {
-          if (std::abs(err[i]) > 3.0 * sd[i]) return "no";
-        }
-        return "yes";
-      };
-      out += row(name, "rotation [deg]", e0.rotation.norm() * kDeg, e1.rotation.norm() * kDeg, rot3,
-                 has_std ? inside(e1.rotation, est.std->rotation) : "-");
-      out += row(name, "translation [mm]", e0.translation.norm() * 1e3, e1.translation.norm() * 1e3,
-                 pos3, has_std ? inside(e1.translation, est.std->translation) : "-");
-      const bool td_inside =
-          has_std && std::abs(e1.time_offset) <= 3.0 * est.std->timeshift_cam_imu;
-      out += row(name, "time offset [ms]", std::abs(e0.time_offset) * 1e3,
-                 std::abs(e1.time_offset) * 1e3, td3, has_std ? (td_inside ? "yes" : "no") : "-");
-    } else {
-      const Camera& ini = initial.cameras[c];
-      const double angle =
-          lie::logQuat(ini.T_cam_imu.q.conjugate() * est.T_cam_imu.q).norm() * kDeg;
-      out += row(name, "rotation [deg]", 0.0, angle, rot3, "(change from initial)");
-      out += row(name, "translation [mm]", 0.0, (est.T_cam_imu.p - ini.T_cam_imu.p).norm() * 1e3,
-                 pos3, "(change from initial)");
-      out += row(name, "time offset [ms]", ini.timeshift_cam_imu * 1e3, est.timeshift_cam_imu * 1e3,
-                 td3, "");
-    }
+    const SpatialTemporal t = truth ? ofCamera(truth->cameras[c]) : SpatialTemporal{};
+    out += rows(ofCamera(initial.cameras[c]), ofCamera(estimate.cameras[c]), truth ? &t : nullptr);
+  }
+  for (std::size_t i = 1; i < estimate.inertial.size(); ++i) {
+    const SpatialTemporal t = truth ? ofInertial(truth->inertial[i]) : SpatialTemporal{};
+    out += rows(ofInertial(initial.inertial[i]), ofInertial(estimate.inertial[i]),
+                truth ? &t : nullptr);
   }
   return out;
 }

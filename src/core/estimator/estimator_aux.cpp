@@ -1,0 +1,323 @@
+// Auxiliary IMUs and gyroscopes in the window (report Sec. 3): their readings, chains of states,
+// initialization (Eq. 40-43), factors and calibration blocks.
+#include "estimator_impl.h"
+#include "mvis/factors/rotation_prior_factor.h"
+
+namespace mvis {
+namespace {
+
+// The extrinsic rotation R_AI and translation p_AI of T_i_b (p_A = R_AI p_I + p_AI).
+void extrinsicOf(const AuxSensor& a, Eigen::Matrix3d* R_AI, Eigen::Vector3d* p_AI) {
+  if (a.gyro) {
+    *R_AI = poseRotation(a.rotation).toRotationMatrix();
+    p_AI->setZero();
+  } else {
+    *R_AI = poseRotation(a.extrinsic).toRotationMatrix();
+    *p_AI = posePosition(a.extrinsic);
+  }
+}
+
+}  // namespace
+
+Status Estimator::Impl::addAuxReading(std::size_t sensor, const ImuMeasurement& m) {
+  AuxSensor& a = *aux[sensor - 1];
+  const InertialSensor& config = rig.inertial[sensor];
+  ImuMeasurement r = m;
+  if (a.gyro) r.accel.setZero();  // a gyroscope's messages carry no acceleration
+  if (!r.gyro.allFinite() || !r.accel.allFinite()) {
+    ++counters.aux_dropped;
+    return Status::Error(config.name + ": non-finite reading dropped");
+  }
+  if (a.last != std::numeric_limits<TimeNs>::min() && r.stamp_ns <= a.last) {
+    if (r.stamp_ns >= a.last - kNsPerSecond) {
+      ++counters.aux_dropped;
+      return Status::Error(config.name + ": reading out of order or repeated, dropped");
+    }
+    // Time jumped back (a bag restarted): the base IMU's jump resets the estimator; this
+    // sensor's buffer starts over.
+    a.readings.clear();
+    a.last = std::numeric_limits<TimeNs>::min();
+  }
+  Status out = Status::Ok();
+  if (a.stopped) {
+    a.stopped = false;
+    std::ostringstream s;
+    s << config.name << ": readings again after " << toSeconds(r.stamp_ns - a.last)
+      << " s; it rejoins the window";
+    out = Status::Error(s.str());
+  }
+  if (!a.readings.empty()) r.span_ns = r.stamp_ns - a.readings.back().stamp_ns;
+  a.last = r.stamp_ns;
+  a.readings.push_back(r);
+  // Readings wait for the base IMU and cameras; if those stop, the buffer must stay bounded.
+  const std::size_t cap =
+      std::max<std::size_t>(2000, static_cast<std::size_t>(20.0 * config.update_rate));
+  while (a.readings.size() > cap) a.readings.pop_front();
+  if (initialized) extendAux(a);
+  return out;
+}
+
+void Estimator::Impl::extendAux() {
+  for (auto& a : aux) extendAux(*a);
+}
+
+std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrateAux(
+    const AuxSensor& a, TimeNs tau_a, TimeNs tau_b, const Eigen::Vector3d& bg,
+    const Eigen::Vector3d& ba) const {
+  if (a.readings.empty() || tau_b <= tau_a) return nullptr;
+  if (a.readings.front().stamp_ns > tau_a || a.readings.back().stamp_ns < tau_b) return nullptr;
+  const std::vector<ImuMeasurement> readings = readingsBetween(a.readings, tau_a, tau_b);
+  const TimeNs max_gap = fromSeconds(options.aux_max_gap_s);
+  for (const auto& r : readings) {
+    if (r.span_ns > max_gap) return nullptr;
+  }
+  const InertialSensor& config = rig.inertial[a.sensor];
+  const double max_interval = config.update_rate > 0.0 ? 2.5 / config.update_rate : 0.0;
+  auto pre = std::make_shared<ImuPreintegration>(config.noise, bg, ba, max_interval);
+  for (const auto& r : readings) pre->add(r);
+  return pre;
+}
+
+void Estimator::Impl::extendAux(AuxSensor& a) {
+  if (!initialized || states.size() < 2) return;
+  const std::size_t idx = a.sensor - 1;
+  const TimeNs td = fromSeconds(a.time_offset[0]);
+  // A sensor whose readings stopped leaves the window, once, with a warning.
+  const TimeNs behind = states.back()->t - td - a.last;
+  if (!a.stopped && a.last != std::numeric_limits<TimeNs>::min() &&
+      behind > fromSeconds(options.aux_timeout_s)) {
+    a.stopped = true;
+    ++counters.aux_dropouts;
+    std::ostringstream s;
+    s << rig.inertial[a.sensor].name << ": no readings for " << toSeconds(behind)
+      << " s; it leaves the window until they return";
+    warning = s.str();
+  }
+  std::size_t newest = states.size();  // the newest window state with a state of a
+  for (std::size_t k = states.size(); k-- > 0;) {
+    if (states[k]->aux[idx]) {
+      newest = k;
+      break;
+    }
+  }
+  if (newest < states.size()) {
+    for (std::size_t k = newest + 1; k < states.size(); ++k) {
+      if (!states[k - 1]->aux[idx]) break;
+      appendAuxState(a, k);
+      if (!states[k]->aux[idx]) break;  // readings do not reach it yet
+    }
+    return;
+  }
+  // No chain: start one at the first run of window states the readings cover.
+  auto tauOf = [&](std::size_t k) { return states[k]->t - td; };
+  const Eigen::Vector3d bg = a.bias_gyro, ba = a.bias_accel;
+  std::size_t k0 = 0;
+  while (k0 + 1 < states.size() && !preintegrateAux(a, tauOf(k0), tauOf(k0 + 1), bg, ba)) ++k0;
+  if (k0 + 1 >= states.size()) return;
+  std::size_t k1 = k0 + 1;
+  while (k1 + 1 < states.size() && preintegrateAux(a, tauOf(k1), tauOf(k1 + 1), bg, ba)) ++k1;
+  startAuxChain(a, k0, k1);
+}
+
+void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1) {
+  const std::size_t idx = a.sensor - 1;
+  const InertialSensor& config = rig.inertial[a.sensor];
+  const double td = a.time_offset[0];
+  const TimeNs td_ns = fromSeconds(td);
+  Eigen::Matrix3d R_AI;
+  Eigen::Vector3d p_AI;
+  extrinsicOf(a, &R_AI, &p_AI);
+  const Eigen::Vector3d g(gravity);
+  const std::size_t n = k1 - k0 + 1;
+  std::vector<TimeNs> tau(n);
+  std::vector<Eigen::Matrix3d> R_A(n);
+  std::vector<Eigen::Vector3d> p_A(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const State& s = *states[k0 + i];
+    tau[i] = s.t - td_ns;
+    R_A[i] = poseRotation(s.pose).toRotationMatrix() * R_AI.transpose();
+    p_A[i] = posePosition(s.pose) - R_A[i] * p_AI;
+  }
+
+  // Gyroscope bias, Eq. 41: J_R_bg db = Log(dR(b0)^T R_A,k^T R_A,k+1) over the intervals, with
+  // the rotation noise of each and the bias prior as weights.
+  const double sg = config.noise.gyroscope_noise_density;
+  Eigen::Matrix3d N =
+      Eigen::Matrix3d::Identity() / (options.bias_gyro_prior * options.bias_gyro_prior);
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  using P = ImuPreintegration;
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    auto pre = preintegrateAux(a, tau[i], tau[i + 1], a.bias_gyro, a.bias_accel);
+    const Eigen::Matrix3d H = pre->jacobian().block<3, 3>(P::kRotation, P::kBiasGyro);
+    const Eigen::Vector3d y =
+        lie::logSO3(pre->deltaR().toRotationMatrix().transpose() * R_A[i].transpose() * R_A[i + 1]);
+    const double w = 1.0 / (sg * sg * pre->duration() + 1e-12);
+    N += w * H.transpose() * H;
+    rhs += w * H.transpose() * y;
+  }
+  const Eigen::Vector3d bg = a.bias_gyro + N.ldlt().solve(rhs);
+
+  // Velocities from the rigid-body relation, Eq. 40, and the accelerometer bias, Eq. 42-43.
+  std::vector<Eigen::Vector3d> v_A(n, Eigen::Vector3d::Zero());
+  Eigen::Vector3d ba = a.bias_accel;
+  if (!a.gyro) {
+    const Eigen::Vector3d p_IA = -R_AI.transpose() * p_AI;
+    for (std::size_t i = 0; i < n; ++i) {
+      const State& s = *states[k0 + i];
+      const Eigen::Vector3d w_I = R_AI.transpose() * (readingIn(a.readings, tau[i]).gyro - bg);
+      v_A[i] = Eigen::Vector3d(s.speed_bias) + poseRotation(s.pose) * w_I.cross(p_IA);
+    }
+    const double sa = config.noise.accelerometer_noise_density;
+    Eigen::Matrix3d Na =
+        Eigen::Matrix3d::Identity() / (options.bias_accel_prior * options.bias_accel_prior);
+    Eigen::Vector3d rhs_a = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      auto pre = preintegrateAux(a, tau[i], tau[i + 1], bg, a.bias_accel);
+      const double T = pre->duration();
+      const Eigen::Matrix3d Rt = R_A[i].transpose();
+      const Eigen::Vector3d yv = Rt * (v_A[i + 1] - v_A[i] - g * T) - pre->deltaV();
+      const Eigen::Vector3d yp =
+          Rt * (p_A[i + 1] - p_A[i] - v_A[i] * T - 0.5 * g * T * T) - pre->deltaP();
+      const Eigen::Matrix3d Hv = pre->jacobian().block<3, 3>(P::kVelocity, P::kBiasAccel);
+      const Eigen::Matrix3d Hp = pre->jacobian().block<3, 3>(P::kPosition, P::kBiasAccel);
+      const double wv = 1.0 / (sa * sa * T + 1e-12), wp = 3.0 / (sa * sa * T * T * T + 1e-12);
+      Na += wv * Hv.transpose() * Hv + wp * Hp.transpose() * Hp;
+      rhs_a += wv * Hv.transpose() * yv + wp * Hp.transpose() * yp;
+    }
+    ba = a.bias_accel + Na.ldlt().solve(rhs_a);
+  }
+
+  for (std::size_t i = 0; i < n; ++i) {
+    auto st = std::make_unique<AuxState>();
+    st->tau = tau[i];
+    st->td0 = td;
+    if (a.block_size == 9) Eigen::Map<Eigen::Vector3d>{st->x} = v_A[i];
+    Eigen::Map<Eigen::Vector3d>{a.biasGyro(st.get())} = bg;
+    if (!a.gyro) Eigen::Map<Eigen::Vector3d>{a.biasAccel(st.get())} = ba;
+    states[k0 + i]->aux[idx] = std::move(st);
+    problem->AddParameterBlock(states[k0 + i]->aux[idx]->x, a.block_size);
+  }
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    addAuxFactor(a, k0 + i, preintegrateAux(a, tau[i], tau[i + 1], bg, ba));
+  }
+  // A weak prior on the first state: what a short stretch of motion cannot pin down.
+  Eigen::VectorXd inv_std(a.block_size);
+  int at = 0;
+  if (a.block_size == 9) {
+    inv_std.head<3>().setConstant(1.0 / options.aux_velocity_prior);
+    at = 3;
+  }
+  inv_std.segment<3>(at).setConstant(1.0 / options.bias_gyro_prior);
+  if (!a.gyro) inv_std.segment<3>(at + 3).setConstant(1.0 / options.bias_accel_prior);
+  AuxState* first = states[k0]->aux[idx].get();
+  const Eigen::VectorXd mean = Eigen::Map<const Eigen::VectorXd>(first->x, a.block_size);
+  addRecord(states[k0].get(), new ceres::NormalPrior(inv_std.asDiagonal(), mean), nullptr,
+            {first->x});
+  ++counters.aux_starts;
+}
+
+void Estimator::Impl::appendAuxState(AuxSensor& a, std::size_t k) {
+  const std::size_t idx = a.sensor - 1;
+  AuxState* prev = states[k - 1]->aux[idx].get();
+  const double td = a.time_offset[0];
+  const TimeNs tau = states[k]->t - fromSeconds(td);
+  const Eigen::Vector3d bg(a.biasGyro(prev));
+  const Eigen::Vector3d ba = a.gyro ? Eigen::Vector3d::Zero() : Eigen::Vector3d(a.biasAccel(prev));
+  auto pre = preintegrateAux(a, prev->tau, tau, bg, ba);
+  if (!pre) return;
+  auto st = std::make_unique<AuxState>();
+  st->tau = tau;
+  st->td0 = td;
+  std::copy(prev->x, prev->x + a.block_size, st->x);
+  if (a.block_size == 9) {
+    // The velocity as the readings predict it from the previous aux pose.
+    Eigen::Matrix3d R_AI;
+    Eigen::Vector3d p_AI;
+    extrinsicOf(a, &R_AI, &p_AI);
+    const State& sp = *states[k - 1];
+    const Eigen::Quaterniond q_A(poseRotation(sp.pose).toRotationMatrix() * R_AI.transpose());
+    const Eigen::Vector3d p_A = posePosition(sp.pose) - q_A * p_AI;
+    Eigen::Quaterniond q;
+    Eigen::Vector3d p, v;
+    pre->predict(q_A, p_A, Eigen::Vector3d(prev->x), Eigen::Vector3d(gravity), &q, &p, &v);
+    Eigen::Map<Eigen::Vector3d>{st->x} = v;
+  }
+  states[k]->aux[idx] = std::move(st);
+  problem->AddParameterBlock(states[k]->aux[idx]->x, a.block_size);
+  addAuxFactor(a, k - 1, pre);
+}
+
+void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
+                                   std::shared_ptr<const ImuPreintegration> pre) {
+  const std::size_t idx = a.sensor - 1;
+  State* si = states[k].get();
+  State* sj = states[k + 1].get();
+  AuxState* ai = si->aux[idx].get();
+  AuxState* aj = sj->aux[idx].get();
+  if (a.gyro) {
+    addRecord(si, new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion), nullptr,
+              {si->pose, si->speed_bias, sj->pose, sj->speed_bias, ai->x, aj->x, a.rotation,
+               a.time_offset});
+  } else {
+    addRecord(si,
+              new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
+                               sj->motion),
+              nullptr,
+              {si->pose, si->speed_bias, sj->pose, sj->speed_bias, ai->x, aj->x, a.extrinsic,
+               a.time_offset, gravity});
+  }
+}
+
+void Estimator::Impl::addAuxCalibrationBlocks() {
+  for (auto& ap : aux) {
+    AuxSensor& a = *ap;
+    const InertialSensor& config = rig.inertial[a.sensor];
+    if (a.gyro) {
+      problem->AddParameterBlock(a.rotation, kRotationSize, &rotation_manifold);
+    } else {
+      problem->AddParameterBlock(a.extrinsic, kPoseSize, &pose_manifold);
+    }
+    problem->AddParameterBlock(a.time_offset, 1);
+    if (!options.estimate_aux_extrinsics) problem->SetParameterBlockConstant(a.extrinsicBlock());
+    if (!options.estimate_aux_time_offsets) problem->SetParameterBlockConstant(a.time_offset);
+    // Priors from the configuration's *_std keys, or the options' defaults.
+    Eigen::Vector3d rot = Eigen::Vector3d::Constant(options.aux_rotation_prior_rad);
+    Eigen::Vector3d pos = Eigen::Vector3d::Constant(options.aux_translation_prior_m);
+    double td = options.aux_time_offset_prior_s;
+    if (config.std) {
+      for (int i = 0; i < 3; ++i) {
+        if (config.std->rotation[i] > 0) rot[i] = config.std->rotation[i];
+        if (config.std->translation[i] > 0) pos[i] = config.std->translation[i];
+      }
+      if (config.std->time_offset > 0) td = config.std->time_offset;
+    }
+    if (a.gyro) {
+      problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), rot), nullptr,
+                                a.rotation);
+    } else {
+      problem->AddResidualBlock(PosePriorFactor::fromStd(poseToSE3(a.extrinsic), rot, pos), nullptr,
+                                a.extrinsic);
+    }
+    problem->AddResidualBlock(new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / td),
+                                                     Eigen::Matrix<double, 1, 1>(a.time_offset[0])),
+                              nullptr, a.time_offset);
+  }
+}
+
+void Estimator::Impl::trimAuxBuffers() {
+  // Readings are needed from the oldest window state (or initialization frame) on: a chain may
+  // start at any window state.
+  TimeNs from = std::numeric_limits<TimeNs>::max();
+  if (!states.empty()) from = states.front()->t;
+  if (!init.empty()) from = std::min(from, init.front().t);
+  for (auto& a : aux) {
+    if (a->readings.empty()) continue;
+    TimeNs keep = from == std::numeric_limits<TimeNs>::max()
+                      ? a->readings.back().stamp_ns - 2 * kNsPerSecond
+                      : from - fromSeconds(a->time_offset[0]);
+    keep -= fromSeconds(0.05);
+    while (a->readings.size() > 2 && a->readings[1].stamp_ns < keep) a->readings.pop_front();
+  }
+}
+
+}  // namespace mvis
