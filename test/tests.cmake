@@ -48,15 +48,21 @@ mvis_core_test(test_tag_reprojection_factor test/unit/test_tag_reprojection_fact
 mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
 mvis_core_test(test_estimator test/unit/test_estimator.cpp)
 
-# A simulated VI-Rig bag for the replay rostest, made at build time.
+# A simulated VI-Rig bag for the replay rostest, made at build time: the VI-Rig with a second
+# auxiliary IMU (two aux IMUs and a gyroscope).
 set(MVIS_REPLAY_DATA ${CMAKE_BINARY_DIR}/test_data/replay)
+set(MVIS_REPLAY_RIG ${CMAKE_BINARY_DIR}/test_data/rig_two_aux)
 add_custom_command(OUTPUT ${MVIS_REPLAY_DATA}/sim.bag
   COMMAND ${CMAKE_COMMAND} -E remove_directory ${MVIS_REPLAY_DATA}
-  COMMAND mvis_simulate --rig ${PROJECT_SOURCE_DIR}/config/sim_vi_rig
+  COMMAND ${CMAKE_COMMAND} -E copy_directory ${PROJECT_SOURCE_DIR}/config/sim_vi_rig
+          ${MVIS_REPLAY_RIG}
+  COMMAND ${CMAKE_COMMAND} -E copy ${PROJECT_SOURCE_DIR}/test/ros/two_aux_imu_chain.yaml
+          ${MVIS_REPLAY_RIG}/kalibr_imu_chain.yaml
+  COMMAND mvis_simulate --rig ${MVIS_REPLAY_RIG}
           --sim ${PROJECT_SOURCE_DIR}/test/ros/replay_sim.yaml --output ${MVIS_REPLAY_DATA}
           --detections
   DEPENDS mvis_simulate ${PROJECT_SOURCE_DIR}/test/ros/replay_sim.yaml
-          ${PROJECT_SOURCE_DIR}/config/sim_vi_rig/kalibr_imu_chain.yaml
+          ${PROJECT_SOURCE_DIR}/test/ros/two_aux_imu_chain.yaml
           ${PROJECT_SOURCE_DIR}/config/sim_vi_rig/kalibr_imucam_chain.yaml)
 add_custom_target(mvis_replay_data DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
 add_dependencies(tests mvis_replay_data)

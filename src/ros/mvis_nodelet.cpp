@@ -100,6 +100,10 @@ void MvisNodelet::onInit() {
     eo.pixel_sigma_px = options_.pixel_sigma;
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;
+    eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
+    eo.estimate_aux_time_offsets = options_.estimate_aux_time_offsets;
+    eo.aux_imu_model = options_.aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity
+                                                                  : AuxImuModel::kVelocityState;
     eo.max_iterations = options_.max_iterations;
     eo.solve_every = options_.solve_every;
     eo.threads = options_.solver_threads;
@@ -303,6 +307,11 @@ void MvisNodelet::publishDiagnostics() {
     add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
     add("imu_gaps", std::to_string(c.imu_gaps));
     add("clock_corrections", std::to_string(c.clock_corrections));
+    if (rig_.inertial.size() > 1) {
+      add("aux_dropped", std::to_string(c.aux_dropped));
+      add("aux_dropouts", std::to_string(c.aux_dropouts));
+      add("aux_starts", std::to_string(c.aux_starts));
+    }
     if (!estimator_error_.empty()) add("last_problem", estimator_error_);
     array.status.push_back(status);
   }
@@ -367,6 +376,11 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   for (const auto& cam : calibration.cameras) {
     transforms.push_back(
         stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
+  }
+  for (std::size_t i = 1; i < calibration.inertial.size(); ++i) {
+    const InertialSensor& s = calibration.inertial[i];
+    transforms.push_back(
+        stampedTransform(s.T_i_b.inverse(), stamp, base, options_.frame_prefix + s.name));
   }
   tf_broadcaster_->sendTransform(transforms);
 

@@ -18,6 +18,9 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
+  nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
+  nh.param("estimate_aux_time_offsets", o.estimate_aux_time_offsets, o.estimate_aux_time_offsets);
+  nh.param("aux_imu_model", o.aux_imu_model, o.aux_imu_model);
   nh.param("max_iterations", o.max_iterations, o.max_iterations);
   nh.param("solve_every", o.solve_every, o.solve_every);
   nh.param("solver_threads", o.solver_threads, o.solver_threads);
@@ -44,6 +47,10 @@ std::string NodeletOptions::validate() const {
   if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
   if (window_size < 3) return "parameter ~window_size must be >= 3";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
+  if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
+    return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +
+           aux_imu_model + "'";
+  }
   if (max_iterations < 1) return "parameter ~max_iterations must be >= 1";
   if (solve_every < 1 || solve_every >= window_size) {
     return "parameter ~solve_every must be >= 1 and < ~window_size";

@@ -1,5 +1,6 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
+//              [--aux-model velocity_state|rigid_velocity]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -25,6 +26,7 @@ int usage(const char* message) {
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--window N]\n"
                "                    [--max-iterations N] [--solve-every N]\n"
+               "                    [--aux-model velocity_state|rigid_velocity]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -35,7 +37,9 @@ int usage(const char* message) {
                "  --pixel-sigma PX corner noise (default 1)\n"
                "  --window N       states in the sliding window (default 4)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
-               "  --solve-every N  solve after every n-th cam0 frame (default 3)\n",
+               "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
+               "  --aux-model M    auxiliary IMU velocity as a state (velocity_state, default)\n"
+               "                   or rigid-body (rigid_velocity, the report's Appendix B)\n",
                message);
   return 2;
 }
@@ -50,6 +54,7 @@ double percentile(std::vector<double> v, double q) {
 
 int main(int argc, char** argv) {
   std::string config_dir, bag_path, output_dir, truth_dir, interpolation = "imu";
+  std::string aux_model = "velocity_state";
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
@@ -88,6 +93,10 @@ int main(int argc, char** argv) {
         return usage("--max-iterations takes a count >= 1");
       }
       iterations = std::atoi(v.c_str());
+    } else if (arg == "--aux-model") {
+      if (!value(&aux_model) || (aux_model != "velocity_state" && aux_model != "rigid_velocity")) {
+        return usage("--aux-model takes velocity_state or rigid_velocity");
+      }
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -123,6 +132,9 @@ int main(int argc, char** argv) {
   // the machine's load.
   options.estimator.max_solve_time_s = 1e3;
   options.estimator.init_solve_time_s = 1e3;
+  options.estimator.aux_imu_model = aux_model == "rigid_velocity"
+                                        ? mvis::AuxImuModel::kRigidVelocity
+                                        : mvis::AuxImuModel::kVelocityState;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

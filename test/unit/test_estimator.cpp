@@ -46,7 +46,8 @@ struct SimRun {
   Recorded data;
 };
 
-SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t seed) {
+SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t seed,
+                MotionKind motion = MotionKind::kHandheld) {
   SimRun run;
   auto truth = loadRig(std::string(MVIS_SOURCE_DIR) + "/config/" + rig_dir);
   EXPECT_TRUE(truth.ok()) << truth.status().message();
@@ -55,6 +56,7 @@ SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t see
   config.duration_s = duration_s;
   config.seed = seed;
   config.camera_output = CameraOutput::kDetections;
+  config.motion.kind = motion;
   config.pixel_noise_px = 0.5;
   config.camera_rate_hz.clear();
   for (const auto& cam : run.truth.cameras) {
@@ -378,6 +380,119 @@ TEST(Estimator, CorrectsATimeOffsetFarFromTheConfiguredOne) {
   EXPECT_LT(e.time_offset_ms, 0.5);
   EXPECT_LT(e.rotation_deg, 0.2);
   EXPECT_LT(e.translation_mm, 5.0);
+}
+
+}  // namespace
+}  // namespace mvis
+
+namespace mvis {
+namespace {
+
+// Report Table 2: rotating about one axis only, an auxiliary IMU's translation along the axis and
+// a gyroscope's rotation about it are unobservable, while the rest still converges.
+TEST(Estimator, YawOnlyMotionLeavesTheAxisDirectionsUncertain) {
+  const SimRun run = simulate("sim_vi_rig", 20.0, 4, MotionKind::kYawOnly);
+  EstimatorOptions options = deterministic();
+  options.pixel_sigma_px = 0.5;
+  auto created = Estimator::create(run.guess, options);
+  ASSERT_TRUE(created.ok());
+  Estimator& estimator = *created.value();
+  feed(run, &estimator);
+  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  ASSERT_TRUE(estimator.computeCovariance().ok());
+  const Rig estimate = estimator.calibration();
+  // The rotation axis in {I}: world z seen from the base IMU (constant: yaw only).
+  const Eigen::Vector3d axis_I =
+      run.truth_trajectory.front().second.q.conjugate() * Eigen::Vector3d::UnitZ();
+  int axis_index = 0;
+  axis_I.cwiseAbs().maxCoeff(&axis_index);
+  ASSERT_GT(std::abs(axis_I[axis_index]), 0.99);  // a frame axis, so per-axis stds tell
+  for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
+    const InertialSensor& truth = run.truth.inertial[i];
+    const InertialSensor& est = estimate.inertial[i];
+    ASSERT_TRUE(est.std.has_value());
+    const CameraCalibrationError e = inertialError(truth, est);
+    const bool gyro = truth.type == InertialType::kGyroscope;
+    // The unobservable direction and its per-axis std: the gyroscope's rotation about the axis
+    // (right perturbation, {I} coordinates); the aux IMU's translation along the axis in {A}.
+    int index = axis_index;
+    const Eigen::Vector3d* stds = &est.std->rotation;
+    if (!gyro) {
+      (truth.T_i_b.q * axis_I).cwiseAbs().maxCoeff(&index);
+      stds = &est.std->translation;
+    }
+    double others = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      if (k != index) others = std::max(others, (*stds)[k]);
+    }
+    std::printf(
+        "%s yaw only: rotation %.4f deg, translation %.2f mm, time offset %.4f ms; std along "
+        "the axis %.4g, largest other %.4g (prior 0.1)\n",
+        truth.name.c_str(), e.rotation.norm() * 180 / M_PI, gyro ? 0.0 : e.translation.norm() * 1e3,
+        std::abs(e.time_offset) * 1e3, (*stds)[index], others);
+    // Measured (seed 4): imu1 translation std 0.014 m along the axis against <= 0.9 mm across;
+    // imu2 rotation std 0.051 rad about it against <= 1 mrad. What this test does NOT assert,
+    // because it does not hold yet: the report expects the prior (0.1) to stay and the estimate
+    // not to move; ours shrinks 2-7x and drifts (imu1 84 mm along the axis, 5.9 sigma; imu2
+    // 6.7 deg about it), as the cameras' translations do, the mark of linearization points
+    // that differ between the marginalization prior and later factors (no first-estimate
+    // Jacobians yet). See the aux issue's note.
+    EXPECT_GT((*stds)[index], 10.0 * others) << truth.name;
+    EXPECT_GT((*stds)[index], 0.005) << truth.name;
+    // What stays observable converges: time offsets, and the aux IMU's rotation.
+    EXPECT_LT(std::abs(e.time_offset) * 1e3, 0.1) << truth.name;
+    EXPECT_LT(std::abs(e.time_offset), 3.0 * est.std->time_offset) << truth.name;
+    if (!gyro) {
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LT(std::abs(e.rotation[k]), 3.0 * est.std->rotation[k]) << truth.name << k;
+      }
+      EXPECT_LT(e.rotation.norm() * 180 / M_PI, 0.05) << truth.name;
+    }
+  }
+}
+
+// An auxiliary sensor that stops for a second leaves the window with a warning and comes back
+// when its readings do; nothing else is disturbed.
+TEST(Estimator, AuxiliarySensorThatStopsLeavesAndRejoins) {
+  const SimRun run = simulate("sim_small_rig", 10.0, 14);
+  auto created = Estimator::create(run.guess, deterministic());
+  ASSERT_TRUE(created.ok());
+  Estimator& estimator = *created.value();
+  const TimeNs t0 = run.truth_trajectory.front().first;
+  bool left_said = false, back_said = false;
+  for (const auto& e : run.data.events()) {
+    if (e.kind == 0) {
+      const auto& [sensor, s] = run.data.imu_samples[e.index];
+      if (sensor == 1 && s.stamp_ns > t0 + fromSeconds(5.0) && s.stamp_ns < t0 + fromSeconds(6.0))
+        continue;  // imu1 silent for a second
+      const Status st = estimator.addImu(sensor, {s.stamp_ns, s.gyro, s.accel});
+      if (!st.ok() && st.message().find("imu1: no readings") != std::string::npos) left_said = true;
+      if (!st.ok() && st.message().find("imu1: readings again") != std::string::npos)
+        back_said = true;
+    } else {
+      estimator.addTagFrame(run.data.frames[e.index]);
+    }
+  }
+  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  EXPECT_TRUE(left_said);
+  EXPECT_TRUE(back_said);
+  EXPECT_EQ(estimator.counters().aux_dropouts, 1);
+  EXPECT_EQ(estimator.counters().aux_starts, 2);  // at initialization and after the silence
+  EXPECT_EQ(estimator.counters().resets, 0);
+  ASSERT_TRUE(estimator.computeCovariance().ok());
+  const Rig estimate = estimator.calibration();
+  const CameraCalibrationError e = inertialError(run.truth.inertial[1], estimate.inertial[1]);
+  const InertialCalibrationStd& sd = *estimate.inertial[1].std;
+  std::printf("imu1 after a 1 s silence: %.4f deg, %.3f mm, %.4f ms\n",
+              e.rotation.norm() * 180 / M_PI, e.translation.norm() * 1e3,
+              std::abs(e.time_offset) * 1e3);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(std::abs(e.rotation[k]), 3.0 * sd.rotation[k]) << k;
+    EXPECT_LT(std::abs(e.translation[k]), 3.0 * sd.translation[k]) << k;
+  }
+  EXPECT_LT(std::abs(e.time_offset), 3.0 * sd.time_offset);
+  EXPECT_LT(e.rotation.norm() * 180 / M_PI, 0.1);
+  EXPECT_LT(e.translation.norm() * 1e3, 5.0);
 }
 
 }  // namespace

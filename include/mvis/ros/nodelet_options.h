@@ -19,14 +19,17 @@ struct NodeletOptions {
   int tag_max_hamming = 1;             // bits the tag decoder may correct (0..2)
   int tag_threads = 1;                 // libapriltag threads per camera
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
-  int window_size = 4;                // states in the sliding window
-  double pixel_sigma = 1.0;           // [px] corner noise
-  bool estimate_extrinsics = true;    // camera-IMU extrinsics
-  bool estimate_time_offsets = true;  // camera time offsets
-  int max_iterations = 10;            // per solve
-  int solve_every = 3;                // solve after every n-th cam0 frame
-  int solver_threads = 1;             // Ceres threads
-  std::string result_dir;             // written on shutdown and by ~save_calibration
+  int window_size = 4;                           // states in the sliding window
+  double pixel_sigma = 1.0;                      // [px] corner noise
+  bool estimate_extrinsics = true;               // camera-IMU extrinsics
+  bool estimate_time_offsets = true;             // camera time offsets
+  bool estimate_aux_extrinsics = true;           // T_i_b of aux IMUs (rotation of gyroscopes)
+  bool estimate_aux_time_offsets = true;         // time_offset of aux IMUs and gyroscopes
+  std::string aux_imu_model = "velocity_state";  // or "rigid_velocity" (report Appendix B)
+  int max_iterations = 10;                       // per solve
+  int solve_every = 3;                           // solve after every n-th cam0 frame
+  int solver_threads = 1;                        // Ceres threads
+  std::string result_dir;                        // written on shutdown and by ~save_calibration
 
   // Empty when the options are usable, else what is wrong, naming the parameter.
   std::string validate() const;
