@@ -281,26 +281,23 @@ void Estimator::Impl::addAuxCalibrationBlocks() {
     if (!options.estimate_aux_extrinsics) problem->SetParameterBlockConstant(a.extrinsicBlock());
     if (!options.estimate_aux_time_offsets) problem->SetParameterBlockConstant(a.time_offset);
     // Priors from the configuration's *_std keys, or the options' defaults.
-    Eigen::Vector3d rot = Eigen::Vector3d::Constant(options.aux_rotation_prior_rad);
-    Eigen::Vector3d pos = Eigen::Vector3d::Constant(options.aux_translation_prior_m);
-    double td = options.aux_time_offset_prior_s;
-    if (config.std) {
-      for (int i = 0; i < 3; ++i) {
-        if (config.std->rotation[i] > 0) rot[i] = config.std->rotation[i];
-        if (config.std->translation[i] > 0) pos[i] = config.std->translation[i];
-      }
-      if (config.std->time_offset > 0) td = config.std->time_offset;
-    }
+    const auto& sd = config.std;
+    const estimator_internal::CalibrationPrior prior = estimator_internal::calibrationPrior(
+        options.aux_rotation_prior_rad, options.aux_translation_prior_m,
+        options.aux_time_offset_prior_s, sd ? &sd->rotation : nullptr,
+        sd ? &sd->translation : nullptr, sd ? sd->time_offset : 0.0);
     if (a.gyro) {
-      problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), rot), nullptr,
-                                a.rotation);
+      problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), prior.rotation),
+                                nullptr, a.rotation);
     } else {
-      problem->AddResidualBlock(PosePriorFactor::fromStd(poseToSE3(a.extrinsic), rot, pos), nullptr,
-                                a.extrinsic);
+      problem->AddResidualBlock(
+          PosePriorFactor::fromStd(poseToSE3(a.extrinsic), prior.rotation, prior.translation),
+          nullptr, a.extrinsic);
     }
-    problem->AddResidualBlock(new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / td),
-                                                     Eigen::Matrix<double, 1, 1>(a.time_offset[0])),
-                              nullptr, a.time_offset);
+    problem->AddResidualBlock(
+        new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / prior.time_offset),
+                               Eigen::Matrix<double, 1, 1>(a.time_offset[0])),
+        nullptr, a.time_offset);
   }
 }
 

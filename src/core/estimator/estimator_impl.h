@@ -110,6 +110,27 @@ ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t);
 std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
                                             TimeNs b);
 
+// Prior standard deviations of an extrinsic and time offset: the configuration's *_std values
+// where positive, the defaults elsewhere.
+struct CalibrationPrior {
+  Eigen::Vector3d rotation, translation;
+  double time_offset;
+};
+inline CalibrationPrior calibrationPrior(double rotation, double translation, double time_offset,
+                                         const Eigen::Vector3d* rotation_std,
+                                         const Eigen::Vector3d* translation_std,
+                                         double time_offset_std) {
+  CalibrationPrior p{Eigen::Vector3d::Constant(rotation), Eigen::Vector3d::Constant(translation),
+                     time_offset_std > 0 ? time_offset_std : time_offset};
+  for (int i = 0; i < 3; ++i) {
+    if (rotation_std != nullptr && (*rotation_std)[i] > 0) p.rotation[i] = (*rotation_std)[i];
+    if (translation_std != nullptr && (*translation_std)[i] > 0) {
+      p.translation[i] = (*translation_std)[i];
+    }
+  }
+  return p;
+}
+
 inline double seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
 }

@@ -28,22 +28,18 @@ void Estimator::Impl::addCalibrationBlocks() {
     if (!options.estimate_time_offsets) problem->SetParameterBlockConstant(b.time_offset);
     if (!options.estimate_intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
     // Priors from the configuration's *_std keys, or the options' defaults.
-    const Camera& cam = rig.cameras[c];
-    Eigen::Vector3d rot = Eigen::Vector3d::Constant(options.extrinsic_rotation_prior_rad);
-    Eigen::Vector3d pos = Eigen::Vector3d::Constant(options.extrinsic_translation_prior_m);
-    double td = options.time_offset_prior_s;
-    if (cam.std) {
-      for (int i = 0; i < 3; ++i) {
-        if (cam.std->rotation[i] > 0) rot[i] = cam.std->rotation[i];
-        if (cam.std->translation[i] > 0) pos[i] = cam.std->translation[i];
-      }
-      if (cam.std->timeshift_cam_imu > 0) td = cam.std->timeshift_cam_imu;
-    }
-    problem->AddResidualBlock(PosePriorFactor::fromStd(poseToSE3(b.extrinsic), rot, pos), nullptr,
-                              b.extrinsic);
-    problem->AddResidualBlock(new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / td),
-                                                     Eigen::Matrix<double, 1, 1>(b.time_offset[0])),
-                              nullptr, b.time_offset);
+    const auto& sd = rig.cameras[c].std;
+    const estimator_internal::CalibrationPrior prior = estimator_internal::calibrationPrior(
+        options.extrinsic_rotation_prior_rad, options.extrinsic_translation_prior_m,
+        options.time_offset_prior_s, sd ? &sd->rotation : nullptr, sd ? &sd->translation : nullptr,
+        sd ? sd->timeshift_cam_imu : 0.0);
+    problem->AddResidualBlock(
+        PosePriorFactor::fromStd(poseToSE3(b.extrinsic), prior.rotation, prior.translation),
+        nullptr, b.extrinsic);
+    problem->AddResidualBlock(
+        new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / prior.time_offset),
+                               Eigen::Matrix<double, 1, 1>(b.time_offset[0])),
+        nullptr, b.time_offset);
   }
   addAuxCalibrationBlocks();
 }

@@ -1,10 +1,9 @@
 #include "mvis/factors/aux_imu_factor.h"
 
-#include <Eigen/Cholesky>
-
 #include "base_motion_shift.h"
 #include "mvis/estimator/state_blocks.h"
 #include "tangent_jet.h"
+#include "whitening.h"
 
 namespace mvis {
 namespace {
@@ -46,12 +45,7 @@ AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegr
   set_num_residuals(15);
   auto* sizes = mutable_parameter_block_sizes();
   for (const auto& l : layoutOf(model_)) sizes->push_back(l.ambient);
-  const Eigen::Matrix<double, 15, 15> information =
-      pre_->covariance().ldlt().solve(Eigen::Matrix<double, 15, 15>::Identity());
-  sqrt_information_ =
-      Eigen::LLT<Eigen::Matrix<double, 15, 15>>(0.5 * (information + information.transpose()))
-          .matrixL()
-          .transpose();
+  sqrt_information_ = sqrtInformation<15>(pre_->covariance());
 }
 
 template <typename T>

@@ -1,10 +1,9 @@
 #include "mvis/factors/gyro_factor.h"
 
-#include <Eigen/Cholesky>
-
 #include "base_motion_shift.h"
 #include "mvis/estimator/state_blocks.h"
 #include "tangent_jet.h"
+#include "whitening.h"
 
 namespace mvis {
 namespace {
@@ -38,12 +37,7 @@ GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time
   cov.topRightCorner<3, 3>() = C.block<3, 3>(P::kRotation, P::kBiasGyro);
   cov.bottomLeftCorner<3, 3>() = C.block<3, 3>(P::kBiasGyro, P::kRotation);
   cov.bottomRightCorner<3, 3>() = C.block<3, 3>(P::kBiasGyro, P::kBiasGyro);
-  const Eigen::Matrix<double, 6, 6> information =
-      cov.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
-  sqrt_information_ =
-      Eigen::LLT<Eigen::Matrix<double, 6, 6>>(0.5 * (information + information.transpose()))
-          .matrixL()
-          .transpose();
+  sqrt_information_ = sqrtInformation<6>(cov);
 }
 
 template <typename T>

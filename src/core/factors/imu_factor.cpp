@@ -1,9 +1,8 @@
 #include "mvis/factors/imu_factor.h"
 
-#include <Eigen/Cholesky>
-
 #include "mvis/common/lie.h"
 #include "mvis/estimator/state_blocks.h"
+#include "whitening.h"
 
 namespace mvis {
 
@@ -47,12 +46,7 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   r.segment<3>(O_BA) = ba_j - ba_i;
 
   // Square-root information: L^T with L L^T = P^-1.
-  const Eigen::Matrix<double, 15, 15> information =
-      pre.covariance().ldlt().solve(Eigen::Matrix<double, 15, 15>::Identity());
-  const Eigen::Matrix<double, 15, 15> sqrt_info =
-      Eigen::LLT<Eigen::Matrix<double, 15, 15>>(0.5 * (information + information.transpose()))
-          .matrixL()
-          .transpose();
+  const Eigen::Matrix<double, 15, 15> sqrt_info = sqrtInformation<15>(pre.covariance());
   Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = sqrt_info * r;
   if (jacobians == nullptr) return true;
 
