@@ -27,7 +27,13 @@ Status validate(const EstimatorOptions& o) {
                                {"time_offset_prior_s", o.time_offset_prior_s},
                                {"bias_gyro_prior", o.bias_gyro_prior},
                                {"bias_accel_prior", o.bias_accel_prior},
-                               {"velocity_prior", o.velocity_prior}}) {
+                               {"velocity_prior", o.velocity_prior},
+                               {"aux_rotation_prior_rad", o.aux_rotation_prior_rad},
+                               {"aux_translation_prior_m", o.aux_translation_prior_m},
+                               {"aux_time_offset_prior_s", o.aux_time_offset_prior_s},
+                               {"aux_velocity_prior", o.aux_velocity_prior},
+                               {"aux_timeout_s", o.aux_timeout_s},
+                               {"aux_max_gap_s", o.aux_max_gap_s}}) {
     if (!(v > 0.0)) return bad(key, "must be positive");
   }
   if (o.covariance_every < 0) return bad("covariance_every", "must be zero or positive");
