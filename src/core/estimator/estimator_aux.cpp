@@ -189,7 +189,6 @@ void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1
 
   for (std::size_t i = 0; i < n; ++i) {
     auto st = std::make_unique<AuxState>();
-    st->tau = tau[i];
     st->td0 = td;
     if (a.block_size == 9) Eigen::Map<Eigen::Vector3d>{st->x} = v_A[i];
     Eigen::Map<Eigen::Vector3d>{a.biasGyro(st.get())} = bg;
@@ -223,10 +222,10 @@ void Estimator::Impl::appendAuxState(AuxSensor& a, std::size_t k) {
   const TimeNs tau = states[k]->t - fromSeconds(td);
   const Eigen::Vector3d bg(a.biasGyro(prev));
   const Eigen::Vector3d ba = a.gyro ? Eigen::Vector3d::Zero() : Eigen::Vector3d(a.biasAccel(prev));
-  auto pre = preintegrateAux(a, prev->tau, tau, bg, ba);
+  const TimeNs prev_tau = states[k - 1]->t - fromSeconds(prev->td0);
+  auto pre = preintegrateAux(a, prev_tau, tau, bg, ba);
   if (!pre) return;
   auto st = std::make_unique<AuxState>();
-  st->tau = tau;
   st->td0 = td;
   std::copy(prev->x, prev->x + a.block_size, st->x);
   if (a.block_size == 9) {

@@ -40,9 +40,10 @@ struct ResidualRecord {
 
 // An auxiliary sensor's state at one window time (state_blocks.h: aux_state or gyro bias).
 struct AuxState {
-  double x[9];       // [v b_g b_a], [b_g b_a] (rigid-velocity model) or [b_g] (gyroscope)
-  double td0 = 0.0;  // the sensor's time offset when this state was made [s]
-  TimeNs tau = 0;    // its time in the sensor's clock: t - td0
+  double x[9];  // [v b_g b_a], [b_g b_a] (rigid-velocity model) or [b_g] (gyroscope)
+  // The sensor's time offset when this state was made [s]: the state belongs to the sensor-clock
+  // time t - td0 of its window state t.
+  double td0 = 0.0;
 };
 
 // One window state. Its residual records are the factors whose oldest state it is: they are
@@ -51,8 +52,7 @@ struct State {
   TimeNs t = 0;
   double pose[kPoseSize];
   double speed_bias[kSpeedBiasSize];
-  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();  // base gyroscope reading at t
-  BaseMotion motion;                               // base readings at t (auxiliary factors)
+  BaseMotion motion;  // base readings at t (kinematic frame poses, auxiliary factors)
   // Per auxiliary sensor (index sensor - 1): its state at t, or null while it has none.
   std::vector<std::unique_ptr<AuxState>> aux;
   std::vector<ResidualRecord> residuals;
@@ -240,8 +240,6 @@ struct Estimator::Impl {
 
   // Readings further apart than this are a gap (2.5 nominal periods).
   double maxImuInterval() const;
-
-  Eigen::Vector3d gyroAt(TimeNs t) const { return readingAt(t).gyro; }
 
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
                  std::vector<double*> blocks);

@@ -75,7 +75,7 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
     const double dt_nominal = toSeconds(frame.stamp_ns - sk->t);
     *blocks = {sk->pose, sk->speed_bias, cb.extrinsic, cb.time_offset, cb.intrinsics};
     return TagReprojectionFactor::kinematic(model, std::move(obs), options.pixel_sigma_px,
-                                            dt_nominal, sk->gyro);
+                                            dt_nominal, sk->motion.gyro);
   }
   State* sk1 = states[k + 1].get();
   *blocks = {sk->pose, sk1->pose, cb.extrinsic, cb.time_offset, cb.intrinsics};
@@ -126,7 +126,6 @@ std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
   auto s = std::make_unique<State>();
   s->t = t;
   const ImuMeasurement at = readingAt(t);
-  s->gyro = at.gyro;
   s->motion.gyro = at.gyro;
   s->motion.accel = at.accel;
   s->motion.angular_acceleration = angularAcceleration(t);
