@@ -46,6 +46,7 @@ mvis_core_test(test_imu_factor test/unit/test_imu_factor.cpp)
 mvis_core_test(test_aux_factors test/unit/test_aux_factors.cpp)
 mvis_core_test(test_tag_reprojection_factor test/unit/test_tag_reprojection_factor.cpp)
 mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
+mvis_core_test(test_observability test/unit/test_observability.cpp)
 mvis_core_test(test_estimator test/unit/test_estimator.cpp)
 
 # A simulated VI-Rig bag for the replay rostest, made at build time: the VI-Rig with a second

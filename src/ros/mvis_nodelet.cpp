@@ -106,6 +106,8 @@ void MvisNodelet::onInit() {
                                                                   : AuxImuModel::kVelocityState;
     eo.max_iterations = options_.max_iterations;
     eo.solve_every = options_.solve_every;
+    eo.observability_ratio = options_.observability_ratio;
+    eo.observability_horizon_s = options_.observability_horizon_s;
     eo.threads = options_.solver_threads;
     auto estimator = Estimator::create(rig_, eo);
     if (!estimator.ok()) {
@@ -312,6 +314,11 @@ void MvisNodelet::publishDiagnostics() {
       add("aux_dropouts", std::to_string(c.aux_dropouts));
       add("aux_starts", std::to_string(c.aux_starts));
     }
+    if (have_update_) {
+      const std::string unobservable = joinedUnobservable();
+      add("unobservable", unobservable.empty() ? "none" : unobservable);
+      if (!unobservable.empty()) status.level = diagnostic_msgs::DiagnosticStatus::WARN;
+    }
     if (!estimator_error_.empty()) add("last_problem", estimator_error_);
     array.status.push_back(status);
   }
@@ -365,6 +372,17 @@ MvisNodelet::~MvisNodelet() {
 }
 
 void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
+  std::string unobservable;
+  for (const auto& d : u.unobservable) unobservable += (unobservable.empty() ? "" : "; ") + d.text();
+  const std::string before = have_update_ ? joinedUnobservable() : std::string();
+  if (unobservable != before) {
+    if (!unobservable.empty()) {
+      NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: the recent motion cannot calibrate " << unobservable
+                                                                                  << " (held)");
+    } else {
+      NODELET_INFO_STREAM_THROTTLE(5.0, "mvis: the motion makes every calibration observable again");
+    }
+  }
   last_update_ = u;
   have_update_ = true;
   gravity_G_ = u.gravity_G;
@@ -493,7 +511,16 @@ void MvisNodelet::publishCalibration() {
   mvis::Calibration msg =
       ros_conversions::toCalibrationMsg(estimator_->calibration(), options_.frame_prefix);
   msg.header.stamp = ros::Time::now();
+  if (have_update_) {
+    for (const auto& d : last_update_.unobservable) msg.unobservable.push_back(d.text());
+  }
   calibration_pub_.publish(msg);
+}
+
+std::string MvisNodelet::joinedUnobservable() const {
+  std::string out;
+  for (const auto& d : last_update_.unobservable) out += (out.empty() ? "" : "; ") + d.text();
+  return out;
 }
 
 std::string MvisNodelet::saveResult() {

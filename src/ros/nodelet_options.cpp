@@ -23,6 +23,8 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("aux_imu_model", o.aux_imu_model, o.aux_imu_model);
   nh.param("max_iterations", o.max_iterations, o.max_iterations);
   nh.param("solve_every", o.solve_every, o.solve_every);
+  nh.param("observability_ratio", o.observability_ratio, o.observability_ratio);
+  nh.param("observability_horizon", o.observability_horizon_s, o.observability_horizon_s);
   nh.param("solver_threads", o.solver_threads, o.solver_threads);
   nh.param("result_dir", o.result_dir, o.result_dir);
   return o;
@@ -46,6 +48,10 @@ std::string NodeletOptions::validate() const {
   }
   if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
   if (window_size < 3) return "parameter ~window_size must be >= 3";
+  if (!(observability_ratio >= 0.0)) {
+    return "parameter ~observability_ratio must be >= 0 (0 turns the check off)";
+  }
+  if (!(observability_horizon_s > 0.0)) return "parameter ~observability_horizon must be positive";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
   if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
     return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +

@@ -1,6 +1,6 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
-//              [--aux-model velocity_state|rigid_velocity]
+//              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -27,6 +27,7 @@ int usage(const char* message) {
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--window N]\n"
                "                    [--max-iterations N] [--solve-every N]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
+               "                    [--observability-ratio R]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -39,7 +40,9 @@ int usage(const char* message) {
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
                "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
                "  --aux-model M    auxiliary IMU velocity as a state (velocity_state, default)\n"
-               "                   or rigid-body (rigid_velocity, the report's Appendix B)\n",
+               "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
+               "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
+               "                   0: off; see config/mvis.yaml)\n",
                message);
   return 2;
 }
@@ -55,6 +58,7 @@ double percentile(std::vector<double> v, double q) {
 int main(int argc, char** argv) {
   std::string config_dir, bag_path, output_dir, truth_dir, interpolation = "imu";
   std::string aux_model = "velocity_state";
+  double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
@@ -97,6 +101,12 @@ int main(int argc, char** argv) {
       if (!value(&aux_model) || (aux_model != "velocity_state" && aux_model != "rigid_velocity")) {
         return usage("--aux-model takes velocity_state or rigid_velocity");
       }
+    } else if (arg == "--observability-ratio") {
+      std::string v;
+      if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) {
+        return usage("--observability-ratio takes a number >= 0");
+      }
+      observability_ratio = std::atof(v.c_str());
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -135,6 +145,7 @@ int main(int argc, char** argv) {
   options.estimator.aux_imu_model = aux_model == "rigid_velocity"
                                         ? mvis::AuxImuModel::kRigidVelocity
                                         : mvis::AuxImuModel::kVelocityState;
+  options.estimator.observability_ratio = observability_ratio;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

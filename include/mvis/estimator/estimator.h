@@ -92,6 +92,17 @@ struct EstimatorOptions {
   double aux_velocity_prior = 0.5;  // [m/s] on an aux IMU's first velocity
   double aux_timeout_s = 0.5;       // readings missing this long: the sensor leaves the window
   double aux_max_gap_s = 0.1;       // longer holes between readings break a sensor's chain
+  // Degenerate motion (report Sec. 5.1, Table 2; observability.h). Before every solve, the
+  // base IMU's motion over the last observability_horizon_s seconds is asked how much it tells
+  // each estimated camera and aux IMU translation and gyroscope rotation and time offset. A
+  // direction it tells less than observability_ratio times the prior's information about (an
+  // idealized measure, with the states known: hence the large default) is unobservable under the
+  // recent motion: it is reported (EstimatorUpdate::unobservable) and held, so that it neither
+  // moves nor gains information on linearization noise; what leaves the window adds none along
+  // it. It keeps the standard deviation it had and is released when the motion tells it again.
+  // 0 turns the check off.
+  double observability_ratio = 500.0;
+  double observability_horizon_s = 5.0;  // [s]
 };
 
 // Checked at creation: a clear message naming the option.
@@ -116,6 +127,21 @@ struct SolveSummary {
   bool usable = false;
 };
 
+// A calibrated quantity that the current motion leaves (partly) unobservable.
+struct UnobservableCalibration {
+  std::string sensor;    // the sensor's name (cam1, imu2, ...)
+  std::string base;      // the base IMU's name, whose frame directions_I are in
+  std::string quantity;  // "rotation", "translation" or "time offset"
+  // Unit directions in the base IMU frame: of the sensor's position (translation) or rotation
+  // axes (rotation); empty for a time offset.
+  std::vector<Eigen::Vector3d> directions_I;
+  // What the window's measurements tell about each direction, over what its prior tells.
+  std::vector<double> information_ratio;
+  // In plain words, e.g. "imu1 translation along (0.00, 0.00, 1.00) in imu0: rotate about
+  // another axis too".
+  std::string text() const;
+};
+
 struct EstimatorUpdate {
   EstimatorState state;  // the newest window state
   // Covariance of [dtheta, dp] of the newest pose (right perturbation) when it was computed
@@ -124,6 +150,8 @@ struct EstimatorUpdate {
   bool calibration_covariance_updated = false;          // calibration() has new standard deviations
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // in the world (board) frame [m/s^2]
   SolveSummary solve;
+  // What the latest observability check found (observability_ratio); empty when all is.
+  std::vector<UnobservableCalibration> unobservable;
 };
 
 // Counters of what the estimator dropped, and why.

@@ -58,6 +58,28 @@ class RotationManifold final : public ceres::Manifold {
   bool MinusJacobian(const double* x, double* jacobian) const override;
 };
 
+// A block held along some of its tangent directions: Plus(x, d) = base.Plus(x, B d) for an
+// orthonormal basis B (tangent x k) of the directions left free. `base` (not owned; nullptr:
+// Euclidean of `ambient` size) is one of the manifolds above, whose PlusJacobian is a lift, so
+// the contract stays: PlusJacobian = base.PlusJacobian B, MinusJacobian = B^T base.MinusJacobian.
+// The estimator holds calibration directions that the recent motion cannot observe this way.
+class SubspaceManifold final : public ceres::Manifold {
+ public:
+  SubspaceManifold(const ceres::Manifold* base, int ambient, Eigen::MatrixXd basis);
+  int AmbientSize() const override { return ambient_; }
+  int TangentSize() const override { return static_cast<int>(basis_.cols()); }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+  const Eigen::MatrixXd& basis() const { return basis_; }
+
+ private:
+  const ceres::Manifold* base_;
+  int ambient_;
+  Eigen::MatrixXd basis_;
+};
+
 // Views of a pose block.
 inline Eigen::Map<const Eigen::Quaterniond> poseRotation(const double* pose) {
   return Eigen::Map<const Eigen::Quaterniond>(pose);

@@ -14,6 +14,16 @@
 //   dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean difference otherwise).
 // Its Jacobian is J0 times each block's MinusJacobian, first-estimate by construction: it stays
 // at the linearization point x0.
+//
+// Uninformative directions: residuals added as `projected` must not inform the tangent
+// directions D (orthonormal columns) set for some blocks. With U the columns D placed at their
+// blocks' rows, the projected residuals' own (Hp, gp) lose what U carries by a Schur complement
+// on the coordinates along U:
+//   Hp' = Hp - Hp U (U^T Hp U)^+ U^T Hp,   gp' = gp - Hp U (U^T Hp U)^+ U^T gp
+// (Hp' U = 0: no information along U; and the share of the residual that U explains goes with
+// it rather than into other blocks). The others add unchanged. The estimator uses this for
+// calibration directions the recent motion does not make observable (observability.h), so that
+// what leaves the window adds no information along them, which only linearization noise would.
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -37,10 +47,12 @@ class Marginalizer {
  public:
   // `manifold` of a block (nullptr: Euclidean); not owned, must outlive the prior.
   void setManifold(const double* block, const ceres::Manifold* manifold);
+  // Tangent directions of `block` (orthonormal columns) that projected residuals must not inform.
+  void setUninformative(const double* block, Eigen::MatrixXd directions);
   // A residual block touching at least one dropped block. Neither pointer is owned; both are
   // only used inside marginalize().
   void addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
-                   std::vector<double*> blocks);
+                   std::vector<double*> blocks, bool projected = false);
   // Linearizes everything added and makes the prior on every block that is not in `drop`.
   // Fails if evaluating a residual fails or nothing is kept.
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(const std::set<const double*>& drop,
@@ -51,9 +63,25 @@ class Marginalizer {
     const ceres::CostFunction* cost;
     const ceres::LossFunction* loss;
     std::vector<double*> blocks;
+    bool projected;
   };
+  struct Entry {
+    double* address;
+    int ambient, tangent, offset;
+    const ceres::Manifold* manifold;
+  };
+  // The Schur complement on the kept blocks (entries after the first `dropped`).
+  struct Reduced {
+    std::vector<Entry> entries;
+    std::size_t dropped = 0;
+    Eigen::MatrixXd H;
+    Eigen::VectorXd g;
+  };
+  StatusOr<Reduced> reduce(const std::set<const double*>& drop, double eps) const;
+
   std::vector<Residual> residuals_;
   std::map<const double*, const ceres::Manifold*> manifolds_;
+  std::map<const double*, Eigen::MatrixXd> uninformative_;
 };
 
 class MarginalizationFactor final : public ceres::CostFunction {

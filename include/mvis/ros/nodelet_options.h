@@ -28,6 +28,8 @@ struct NodeletOptions {
   std::string aux_imu_model = "velocity_state";  // or "rigid_velocity" (report Appendix B)
   int max_iterations = 10;                       // per solve
   int solve_every = 3;                           // solve after every n-th cam0 frame
+  double observability_ratio = 500.0;            // EstimatorOptions; 0: no degeneracy check
+  double observability_horizon_s = 5.0;          // [s] motion the check looks back over
   int solver_threads = 1;                        // Ceres threads
   std::string result_dir;                        // written on shutdown and by ~save_calibration
 

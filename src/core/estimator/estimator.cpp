@@ -33,10 +33,14 @@ Status validate(const EstimatorOptions& o) {
                                {"aux_time_offset_prior_s", o.aux_time_offset_prior_s},
                                {"aux_velocity_prior", o.aux_velocity_prior},
                                {"aux_timeout_s", o.aux_timeout_s},
-                               {"aux_max_gap_s", o.aux_max_gap_s}}) {
+                               {"aux_max_gap_s", o.aux_max_gap_s},
+                               {"observability_horizon_s", o.observability_horizon_s}}) {
     if (!(v > 0.0)) return bad(key, "must be positive");
   }
   if (o.covariance_every < 0) return bad("covariance_every", "must be zero or positive");
+  if (!(o.observability_ratio >= 0.0)) {
+    return bad("observability_ratio", "must be zero (off) or positive");
+  }
   return Status::Ok();
 }
 
@@ -156,6 +160,7 @@ void Estimator::Impl::process() {
       extendAux();
       SolveSummary summary;
       if (++frames_since_solve >= options.solve_every) {
+        checkObservability();  // holds what the motion cannot observe before solving
         summary = solve(options.max_iterations);
         frames_since_solve = 0;
       } else {
@@ -252,6 +257,10 @@ void Estimator::Impl::resetAll() {
     a->stopped = false;
   }
   warning.clear();
+  unobservable.clear();
+  uninformative.clear();
+  motion_information.clear();
+  holds.clear();  // after newProblem(): the old problem no longer uses their manifolds
   clocks_aligned = false;
   initialized = false;
   last_imu = std::numeric_limits<TimeNs>::min();

@@ -281,10 +281,11 @@ void Estimator::Impl::addAuxCalibrationBlocks() {
     if (!options.estimate_aux_time_offsets) problem->SetParameterBlockConstant(a.time_offset);
     // Priors from the configuration's *_std keys, or the options' defaults.
     const auto& sd = config.std;
-    const estimator_internal::CalibrationPrior prior = estimator_internal::calibrationPrior(
+    a.prior = estimator_internal::calibrationPrior(
         options.aux_rotation_prior_rad, options.aux_translation_prior_m,
         options.aux_time_offset_prior_s, sd ? &sd->rotation : nullptr,
         sd ? &sd->translation : nullptr, sd ? sd->time_offset : 0.0);
+    const estimator_internal::CalibrationPrior& prior = a.prior;
     if (a.gyro) {
       problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), prior.rotation),
                                 nullptr, a.rotation);

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -69,47 +70,6 @@ struct State {
   }
 };
 
-struct CameraBlocks {
-  double extrinsic[kPoseSize];  // T_C_I
-  double time_offset[1];        // [s]
-  double intrinsics[kIntrinsicsSize];
-};
-
-// An auxiliary IMU or gyroscope (rig.inertial[sensor], sensor >= 1): calibration blocks,
-// readings in its own clock, and what the estimator knows of it between its chains of states.
-struct AuxSensor {
-  std::size_t sensor = 0;
-  bool gyro = false;
-  int block_size = 9;              // of its AuxState::x
-  double extrinsic[kPoseSize];     // T_i_b (IMUs)
-  double rotation[kRotationSize];  // the rotation of T_i_b (gyroscopes)
-  double time_offset[1];           // [s], t_imu0 = t_i + time_offset
-  std::deque<ImuMeasurement> readings;
-  TimeNs last = std::numeric_limits<TimeNs>::min();
-  bool stopped = false;                                 // said to have left the window
-  Eigen::Vector3d bias_gyro = Eigen::Vector3d::Zero();  // last estimate, for a new chain
-  Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
-  std::optional<InertialCalibrationStd> std;
-
-  double* biasGyro(AuxState* s) const { return block_size == 9 ? s->x + 3 : s->x; }
-  double* biasAccel(AuxState* s) const { return block_size == 9 ? s->x + 6 : s->x + 3; }
-  double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
-};
-
-struct InitFrame {
-  TimeNs t = 0;  // base clock
-  SE3 T_G_I;
-  TagFrame frame;
-};
-
-// The reading at t in a buffer of increasing stamps, interpolated between its neighbours (the
-// nearest one outside the buffer).
-ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t);
-
-// The readings over [a, b] with interpolated readings at both ends.
-std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
-                                            TimeNs b);
-
 // Prior standard deviations of an extrinsic and time offset: the configuration's *_std values
 // where positive, the defaults elsewhere.
 struct CalibrationPrior {
@@ -130,6 +90,49 @@ inline CalibrationPrior calibrationPrior(double rotation, double translation, do
   }
   return p;
 }
+
+struct CameraBlocks {
+  double extrinsic[kPoseSize];  // T_C_I
+  double time_offset[1];        // [s]
+  double intrinsics[kIntrinsicsSize];
+  CalibrationPrior prior;  // of the extrinsic and time offset
+};
+
+// An auxiliary IMU or gyroscope (rig.inertial[sensor], sensor >= 1): calibration blocks,
+// readings in its own clock, and what the estimator knows of it between its chains of states.
+struct AuxSensor {
+  std::size_t sensor = 0;
+  bool gyro = false;
+  int block_size = 9;              // of its AuxState::x
+  double extrinsic[kPoseSize];     // T_i_b (IMUs)
+  double rotation[kRotationSize];  // the rotation of T_i_b (gyroscopes)
+  double time_offset[1];           // [s], t_imu0 = t_i + time_offset
+  std::deque<ImuMeasurement> readings;
+  TimeNs last = std::numeric_limits<TimeNs>::min();
+  bool stopped = false;                                 // said to have left the window
+  Eigen::Vector3d bias_gyro = Eigen::Vector3d::Zero();  // last estimate, for a new chain
+  Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
+  std::optional<InertialCalibrationStd> std;
+  CalibrationPrior prior;  // of the extrinsic (or rotation) and time offset
+
+  double* biasGyro(AuxState* s) const { return block_size == 9 ? s->x + 3 : s->x; }
+  double* biasAccel(AuxState* s) const { return block_size == 9 ? s->x + 6 : s->x + 3; }
+  double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
+};
+
+struct InitFrame {
+  TimeNs t = 0;  // base clock
+  SE3 T_G_I;
+  TagFrame frame;
+};
+
+// The reading at t in a buffer of increasing stamps, interpolated between its neighbours (the
+// nearest one outside the buffer).
+ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t);
+
+// The readings over [a, b] with interpolated readings at both ends.
+std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
+                                            TimeNs b);
 
 inline double seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -184,6 +187,29 @@ struct Estimator::Impl {
   int solves_since_covariance = 0;
   int frames_since_solve = 0;
   std::string warning;  // for the caller of the next addImu / addTagFrame
+  // The latest observability check: what it found, and per calibration block the tangent
+  // directions (orthonormal columns) that what leaves the window must not inform.
+  std::vector<UnobservableCalibration> unobservable;
+  std::map<const double*, Eigen::MatrixXd> uninformative;
+  // What the base IMU's motion between consecutive states tells the calibration (per unit
+  // noise density, estimator_observability.cpp), over the last observability_horizon_s.
+  struct MotionInformation {
+    TimeNs t = 0;  // the later state's time
+    Eigen::Matrix3d translation = Eigen::Matrix3d::Zero();  // int (hat(a) + hat(w)^2)^T (...) dt
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
+    double time_offset = 0.0;                               // int |alpha|^2 dt
+  };
+  std::deque<MotionInformation> motion_information;
+  // Calibration blocks held along their unobservable directions (so they cannot drift on what
+  // the window's linearization noise says): the block's own manifold, the subspace manifold in
+  // use (null: held whole, constant), the held directions and the variance each keeps.
+  struct Hold {
+    ceres::Manifold* base = nullptr;
+    std::unique_ptr<SubspaceManifold> subspace;
+    Eigen::MatrixXd directions;
+    Eigen::VectorXd variance;
+  };
+  std::map<const double*, Hold> holds;
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
     for (const auto& cam : rig.cameras) {
@@ -328,6 +354,35 @@ struct Estimator::Impl {
   SolveSummary windowSummary() const;
 
   void marginalizeOldest();
+
+  // Finds the calibration directions the window's measurements leave unobservable
+  // (observability.h), into `unobservable` and `uninformative` (estimator_observability.cpp).
+  void checkObservability();
+
+  // Adds the motion between states at a and b (base readings, gyro bias) to motion_information.
+  void addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vector3d& bias_gyro);
+
+  // Holds what `uninformative` names and releases what it no longer does.
+  void applyHolds();
+
+  // The block's own manifold, also while it is held.
+  const ceres::Manifold* baseManifold(const double* block) const {
+    const auto h = holds.find(block);
+    return h != holds.end() ? h->second.base : problem->GetManifold(block);
+  }
+
+  // Tangent covariance of a calibration block in its own manifold's tangent (held directions
+  // with the variance they keep).
+  Eigen::MatrixXd tangentCovariance(const ceres::Covariance& cov, const double* block) const;
+
+  // Whether a calibration block is estimated (not constant, or constant only while held).
+  bool estimated(const double* block) const {
+    return holds.count(block) > 0 || !problem->IsParameterBlockConstant(block);
+  }
+
+  // Latest standard deviations of a calibration block in its own tangent (the prior's before
+  // any covariance).
+  Eigen::VectorXd latestStd(const double* block) const;
 
   void publish(const SolveSummary& summary, Clock::time_point start);
 

@@ -131,14 +131,30 @@ void Estimator::Impl::initialize() {
   addRecord(states.front().get(), new ceres::NormalPrior(A_prior, b_prior), nullptr,
             {states.front()->speed_bias});
   // The states' biases start at zero, the preintegrations' linearization point above.
-  for (std::size_t i = 0; i + 1 < n; ++i) addImuFactor(i, pre[i]);
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    addImuFactor(i, pre[i]);
+    addMotionInformation(states[i]->t, states[i + 1]->t, Eigen::Vector3d::Zero());
+  }
   for (std::size_t i = 0; i < n; ++i) addFrame(init[i].frame, i);
   init.clear();
   attachOtherFrames();
   initialized = true;  // auxiliary sensors join the window from here on
   extendAux();
+  // The first batch settles the states; the auxiliary sensors' calibration waits for the window
+  // (and its observability check): one short window cannot tell much about it, and what it
+  // cannot observe would move on linearization noise alone.
+  std::vector<double*> held_for_batch;
+  for (auto& a : aux) {
+    for (double* b : {a->extrinsicBlock(), a->time_offset}) {
+      if (!problem->IsParameterBlockConstant(b)) {
+        problem->SetParameterBlockConstant(b);
+        held_for_batch.push_back(b);
+      }
+    }
+  }
   const auto start = Clock::now();
   SolveSummary summary = solve(std::max(30, options.max_iterations), options.init_solve_time_s);
+  for (double* b : held_for_batch) problem->SetParameterBlockVariable(b);
   status_text = clock_message.empty() ? "running" : "running; " + clock_message;
   while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
   publish(summary, start);

@@ -29,10 +29,11 @@ void Estimator::Impl::addCalibrationBlocks() {
     if (!options.estimate_intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
     // Priors from the configuration's *_std keys, or the options' defaults.
     const auto& sd = rig.cameras[c].std;
-    const estimator_internal::CalibrationPrior prior = estimator_internal::calibrationPrior(
+    b.prior = estimator_internal::calibrationPrior(
         options.extrinsic_rotation_prior_rad, options.extrinsic_translation_prior_m,
         options.time_offset_prior_s, sd ? &sd->rotation : nullptr, sd ? &sd->translation : nullptr,
         sd ? sd->timeshift_cam_imu : 0.0);
+    const estimator_internal::CalibrationPrior& prior = b.prior;
     problem->AddResidualBlock(
         PosePriorFactor::fromStd(poseToSE3(b.extrinsic), prior.rotation, prior.translation),
         nullptr, b.extrinsic);
@@ -149,6 +150,7 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   addStateBlocks(states.back().get());
   addImuFactor(states.size() - 2, pre);
   addFrame(frame, states.size() - 1);
+  addMotionInformation(last.t, t, bg);
 }
 
 void Estimator::Impl::attachOtherFrames() {
@@ -233,9 +235,12 @@ void Estimator::Impl::marginalizeOldest() {
   for (const auto& r : oldest->residuals) records.push_back(&r);
   if (prior.id != nullptr) records.push_back(&prior);
   for (const auto* r : records) {
-    for (double* block : r->blocks) m.setManifold(block, problem->GetManifold(block));
-    m.addResidual(r->cost, r->loss, r->blocks);
+    for (double* block : r->blocks) m.setManifold(block, baseManifold(block));
+    // The measurements leaving add nothing along what they cannot observe; the old prior
+    // keeps what earlier motion told.
+    m.addResidual(r->cost, r->loss, r->blocks, r != &prior);
   }
+  for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
   std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
   for (std::size_t i = 0; i < aux.size(); ++i) {
     AuxState* as = oldest->aux[i].get();
@@ -272,6 +277,7 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   u.solve = summary;
   u.state = states.back()->toEstimate();
   u.gravity_G = Eigen::Vector3d(gravity);
+  u.unobservable = unobservable;
   u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
   if (options.covariance_every > 0 && solves_since_covariance >= options.covariance_every) {
     Eigen::Matrix<double, 6, 6> pose_cov;
@@ -307,13 +313,13 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
   }
   if (!cov.Compute(blocks, problem.get())) return Status::Error("covariance computation failed");
   if (pose_cov != nullptr) cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
-  std::vector<CameraCalibrationStd> out(cameras.size());
+  // Blocks held whole (constant) keep the standard deviations they had.
+  std::vector<CameraCalibrationStd> out =
+      camera_std ? *camera_std : std::vector<CameraCalibrationStd>(cameras.size());
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     const CameraBlocks& cb = *cameras[c];
     if (!problem->IsParameterBlockConstant(cb.extrinsic)) {
-      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C;
-      cov.GetCovarianceBlockInTangentSpace(cb.extrinsic, cb.extrinsic, C.data());
-      const Vector6d sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+      const Vector6d sd = tangentCovariance(cov, cb.extrinsic).diagonal().cwiseMax(0.0).cwiseSqrt();
       out[c].rotation = sd.head<3>();
       out[c].translation = sd.tail<3>();
     }
@@ -332,20 +338,13 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
   }
   camera_std = out;
   for (auto& a : aux) {
-    InertialCalibrationStd sd;
-    const double* e = a->extrinsicBlock();
+    // A block held whole (constant) keeps the standard deviations it had.
+    InertialCalibrationStd sd = a->std ? *a->std : InertialCalibrationStd{};
+    double* e = a->extrinsicBlock();
     if (!problem->IsParameterBlockConstant(e)) {
-      if (a->gyro) {
-        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> C;
-        cov.GetCovarianceBlockInTangentSpace(e, e, C.data());
-        sd.rotation = C.diagonal().cwiseMax(0.0).cwiseSqrt();
-      } else {
-        Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C;
-        cov.GetCovarianceBlockInTangentSpace(e, e, C.data());
-        const Vector6d v = C.diagonal().cwiseMax(0.0).cwiseSqrt();
-        sd.rotation = v.head<3>();
-        sd.translation = v.tail<3>();
-      }
+      const Eigen::VectorXd v = tangentCovariance(cov, e).diagonal().cwiseMax(0.0).cwiseSqrt();
+      sd.rotation = v.head<3>();
+      if (!a->gyro) sd.translation = v.tail<3>();
     }
     if (!problem->IsParameterBlockConstant(a->time_offset)) {
       double v = 0.0;

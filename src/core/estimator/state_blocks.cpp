@@ -57,4 +57,45 @@ bool RotationManifold::MinusJacobian(const double* /*x*/, double* jacobian) cons
   return true;
 }
 
+SubspaceManifold::SubspaceManifold(const ceres::Manifold* base, int ambient, Eigen::MatrixXd basis)
+    : base_(base), ambient_(ambient), basis_(std::move(basis)) {}
+
+bool SubspaceManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  const Eigen::VectorXd d =
+      basis_ * Eigen::Map<const Eigen::VectorXd>(delta, basis_.cols());
+  if (base_ != nullptr) return base_->Plus(x, d.data(), x_plus_delta);
+  for (int i = 0; i < ambient_; ++i) x_plus_delta[i] = x[i] + d[i];
+  return true;
+}
+
+bool SubspaceManifold::PlusJacobian(const double* x, double* jacobian) const {
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const auto n = basis_.rows();
+  RowMajor lift = RowMajor::Identity(ambient_, n);
+  if (base_ != nullptr && !base_->PlusJacobian(x, lift.data())) return false;
+  Eigen::Map<RowMajor>(jacobian, ambient_, basis_.cols()) = lift * basis_;
+  return true;
+}
+
+bool SubspaceManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  const auto n = basis_.rows();
+  Eigen::VectorXd d(n);
+  if (base_ != nullptr) {
+    if (!base_->Minus(y, x, d.data())) return false;
+  } else {
+    for (int i = 0; i < n; ++i) d[i] = y[i] - x[i];
+  }
+  Eigen::Map<Eigen::VectorXd>(y_minus_x, basis_.cols()) = basis_.transpose() * d;
+  return true;
+}
+
+bool SubspaceManifold::MinusJacobian(const double* x, double* jacobian) const {
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const auto n = basis_.rows();
+  RowMajor minus = RowMajor::Identity(n, ambient_);
+  if (base_ != nullptr && !base_->MinusJacobian(x, minus.data())) return false;
+  Eigen::Map<RowMajor>(jacobian, basis_.cols(), ambient_) = basis_.transpose() * minus;
+  return true;
+}
+
 }  // namespace mvis

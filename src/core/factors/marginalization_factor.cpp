@@ -50,20 +50,20 @@ void Marginalizer::setManifold(const double* block, const ceres::Manifold* manif
   manifolds_[block] = manifold;
 }
 
-void Marginalizer::addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
-                               std::vector<double*> blocks) {
-  residuals_.push_back({cost, loss, std::move(blocks)});
+void Marginalizer::setUninformative(const double* block, Eigen::MatrixXd directions) {
+  uninformative_[block] = std::move(directions);
 }
 
-StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
-    const std::set<const double*>& drop, double eps) const {
+void Marginalizer::addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
+                               std::vector<double*> blocks, bool projected) {
+  residuals_.push_back({cost, loss, std::move(blocks), projected});
+}
+
+StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double*>& drop,
+                                                     double eps) const {
   // Every block once: dropped ones first, then kept ones, in order of first appearance.
-  struct Entry {
-    double* address;
-    int ambient, tangent, offset;
-    const ceres::Manifold* manifold;
-  };
-  std::vector<Entry> entries;
+  Reduced out;
+  std::vector<Entry>& entries = out.entries;
   std::map<const double*, int> index;
   for (int pass = 0; pass < 2; ++pass) {
     for (const auto& residual : residuals_) {
@@ -78,6 +78,7 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
         entries.push_back({address, sizes[b], tangentSize(manifold, sizes[b]), 0, manifold});
       }
     }
+    if (pass == 0) out.dropped = entries.size();
   }
   int n = 0, m = 0;
   for (auto& e : entries) {
@@ -87,9 +88,18 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
   }
   if (m == n) return Status::Error("marginalization keeps no parameter block");
 
+  // H = sum J^T J and g = sum J^T r, accumulated block by block: a residual touches few blocks.
+  // Projected residuals go to their own (Hp, gp) first.
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd Hp = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd gp = Eigen::VectorXd::Zero(n);
+  bool any_projected = false;
   for (const auto& residual : residuals_) {
+    const bool projected = residual.projected && !uninformative_.empty();
+    any_projected = any_projected || projected;
+    Eigen::MatrixXd& Ha = projected ? Hp : H;
+    Eigen::VectorXd& ga = projected ? gp : g;
     const int rows = residual.cost->num_residuals();
     const auto& sizes = residual.cost->parameter_block_sizes();
     Eigen::VectorXd r(rows);
@@ -107,30 +117,79 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
       residual.loss->Evaluate(r.squaredNorm(), rho);
       weight = std::sqrt(std::max(rho[1], 0.0));
     }
-    // Tangent Jacobians of this residual, placed at their blocks' columns.
-    Eigen::MatrixXd Jt = Eigen::MatrixXd::Zero(rows, n);
+    r *= weight;
+    // Tangent Jacobians of this residual per block.
+    std::vector<Eigen::MatrixXd> Jt(residual.blocks.size());
+    std::vector<const Entry*> at(residual.blocks.size());
     for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
       const Entry& e = entries[index.at(residual.blocks[b])];
+      at[b] = &e;
       if (e.manifold != nullptr) {
         Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(e.ambient,
                                                                                     e.tangent);
         e.manifold->PlusJacobian(e.address, plus.data());
-        Jt.middleCols(e.offset, e.tangent) += J[b] * plus;
+        Jt[b] = weight * (J[b] * plus);
       } else {
-        Jt.middleCols(e.offset, e.tangent) += J[b];
+        Jt[b] = weight * J[b];
       }
     }
-    Jt *= weight;
-    r *= weight;
-    H.noalias() += Jt.transpose() * Jt;
-    g.noalias() += Jt.transpose() * r;
+    for (std::size_t a = 0; a < Jt.size(); ++a) {
+      ga.segment(at[a]->offset, at[a]->tangent).noalias() += Jt[a].transpose() * r;
+      for (std::size_t b = a; b < Jt.size(); ++b) {
+        const Eigen::MatrixXd block = Jt[a].transpose() * Jt[b];
+        Ha.block(at[a]->offset, at[b]->offset, at[a]->tangent, at[b]->tangent) += block;
+        if (b != a) {
+          Ha.block(at[b]->offset, at[a]->offset, at[b]->tangent, at[a]->tangent) +=
+              block.transpose();
+        }
+      }
+    }
+  }
+  if (any_projected) {
+    // The projected residuals forget the uninformative directions U: the components along U
+    // are marginalized out of their (Hp, gp), which takes both the information along U and the
+    // share of the residual that U explains, so that nothing else has to absorb it.
+    int k = 0;
+    for (const auto& [block, D] : uninformative_) {
+      if (index.count(block)) k += static_cast<int>(D.cols());
+    }
+    Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n, k);
+    int col = 0;
+    for (const auto& [block, D] : uninformative_) {
+      const auto i = index.find(block);
+      if (i == index.end()) continue;
+      const Entry& e = entries[i->second];
+      U.block(e.offset, col, e.tangent, D.cols()) = D;
+      col += static_cast<int>(D.cols());
+    }
+    if (k > 0) {
+      const Eigen::MatrixXd HpU = Hp * U;
+      const Eigen::MatrixXd inv = pseudoInverse(U.transpose() * HpU, eps);
+      Hp -= HpU * inv * HpU.transpose();
+      gp -= HpU * (inv * (U.transpose() * gp));
+    }
+    H += Hp;
+    g += gp;
   }
 
   const int k = n - m;
   const Eigen::MatrixXd Hmm_inv = pseudoInverse(H.topLeftCorner(m, m), eps);
   const Eigen::MatrixXd Hkm = H.bottomLeftCorner(k, m);
-  const Eigen::MatrixXd Hs = H.bottomRightCorner(k, k) - Hkm * Hmm_inv * Hkm.transpose();
-  const Eigen::VectorXd gs = g.tail(k) - Hkm * Hmm_inv * g.head(m);
+  const Eigen::MatrixXd HkmHmm_inv = Hkm * Hmm_inv;
+  out.H = H.bottomRightCorner(k, k) - HkmHmm_inv * Hkm.transpose();
+  out.g = g.tail(k) - HkmHmm_inv * g.head(m);
+  for (std::size_t i = out.dropped; i < entries.size(); ++i) entries[i].offset -= m;
+  return out;
+}
+
+StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
+    const std::set<const double*>& drop, double eps) const {
+  auto reduced = reduce(drop, eps);
+  if (!reduced.ok()) return reduced.status();
+  const Reduced& red = reduced.value();
+  const Eigen::MatrixXd& Hs = red.H;
+  const Eigen::VectorXd& gs = red.g;
+  const auto k = Hs.rows();
 
   // Hs = J0^T J0 with J0 = diag(sqrt(l)) V^T D^1/2; r0 solves J0^T r0 = gs.
   const ScaledEigen es = scaledEigen(Hs, eps);
@@ -147,8 +206,8 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
   }
 
   std::vector<MarginalizationFactor::Block> kept;
-  for (const auto& e : entries) {
-    if (drop.count(e.address)) continue;
+  for (std::size_t i = red.dropped; i < red.entries.size(); ++i) {
+    const Entry& e = red.entries[i];
     MarginalizationFactor::Block block;
     block.address = e.address;
     block.manifold = e.manifold;
