@@ -41,6 +41,13 @@ SE3 worldFromBoard(const Eigen::Vector3d& gravity_G) {
              Eigen::Vector3d::Zero());
 }
 
+// What an update says the motion leaves unobservable, in words, '; '-separated.
+std::string joinedText(const std::vector<UnobservableCalibration>& unobservable) {
+  std::string out;
+  for (const auto& d : unobservable) out += (out.empty() ? "" : "; ") + d.text();
+  return out;
+}
+
 diagnostic_msgs::DiagnosticStatus makeStatus(std::uint8_t level, const std::string& name,
                                              const std::string& message) {
   diagnostic_msgs::DiagnosticStatus status;
@@ -315,7 +322,7 @@ void MvisNodelet::publishDiagnostics() {
       add("aux_starts", std::to_string(c.aux_starts));
     }
     if (have_update_) {
-      const std::string unobservable = joinedUnobservable();
+      const std::string unobservable = joinedText(last_update_.unobservable);
       add("unobservable", unobservable.empty() ? "none" : unobservable);
       if (!unobservable.empty()) status.level = diagnostic_msgs::DiagnosticStatus::WARN;
     }
@@ -372,15 +379,15 @@ MvisNodelet::~MvisNodelet() {
 }
 
 void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
-  std::string unobservable;
-  for (const auto& d : u.unobservable) unobservable += (unobservable.empty() ? "" : "; ") + d.text();
-  const std::string before = have_update_ ? joinedUnobservable() : std::string();
+  const std::string unobservable = joinedText(u.unobservable);
+  const std::string before = have_update_ ? joinedText(last_update_.unobservable) : std::string();
   if (unobservable != before) {
     if (!unobservable.empty()) {
-      NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: the recent motion cannot calibrate " << unobservable
-                                                                                  << " (held)");
+      NODELET_WARN_STREAM_THROTTLE(
+          5.0, "mvis: the recent motion cannot calibrate " << unobservable << " (held)");
     } else {
-      NODELET_INFO_STREAM_THROTTLE(5.0, "mvis: the motion makes every calibration observable again");
+      NODELET_INFO_STREAM_THROTTLE(5.0,
+                                   "mvis: the motion makes every calibration observable again");
     }
   }
   last_update_ = u;
@@ -515,12 +522,6 @@ void MvisNodelet::publishCalibration() {
     for (const auto& d : last_update_.unobservable) msg.unobservable.push_back(d.text());
   }
   calibration_pub_.publish(msg);
-}
-
-std::string MvisNodelet::joinedUnobservable() const {
-  std::string out;
-  for (const auto& d : last_update_.unobservable) out += (out.empty() ? "" : "; ") + d.text();
-  return out;
 }
 
 std::string MvisNodelet::saveResult() {

@@ -13,19 +13,13 @@
 namespace mvis {
 namespace {
 
-Eigen::Matrix3d hat(const Eigen::Vector3d& w) {
-  Eigen::Matrix3d m;
-  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-  return m;
-}
-
 // Rotation about one axis k: int hat(w)^T hat(w) has k as its null space (report Table 2).
 TEST(Observability, OneAxisRotationLeavesTheAxis) {
   const Eigen::Vector3d k = Eigen::Vector3d(1.0, 2.0, -0.5).normalized();
   Eigen::Matrix3d I = Eigen::Matrix3d::Zero();
   for (int i = 0; i < 100; ++i) {
     const Eigen::Vector3d w = std::sin(0.1 * i) * 2.0 * k;
-    I += 0.01 * hat(w).transpose() * hat(w) / (1e-3 * 1e-3);
+    I += 0.01 * lie::hat(w).transpose() * lie::hat(w) / (1e-3 * 1e-3);
   }
   const Eigen::Vector3d prior_std(0.1, 0.1, 0.05);
   const Eigen::Matrix3d W = prior_std.asDiagonal() * I * prior_std.asDiagonal();
@@ -37,7 +31,7 @@ TEST(Observability, OneAxisRotationLeavesTheAxis) {
   Eigen::Matrix3d full = I;
   for (int i = 0; i < 3; ++i) {
     const Eigen::Vector3d w = Eigen::Vector3d::Unit(i);
-    full += hat(w).transpose() * hat(w) / (1e-3 * 1e-3);
+    full += lie::hat(w).transpose() * lie::hat(w) / (1e-3 * 1e-3);
   }
   const Eigen::Matrix3d Wf = prior_std.asDiagonal() * full * prior_std.asDiagonal();
   EXPECT_EQ(weakDirections(Wf, prior_std, 500.0).directions.cols(), 0);
@@ -108,7 +102,7 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
       for (int j = 0; j < c; ++j) m(i, j) = n(rng);
     return m;
   };
-  const LinearCost a(random(6, 2), random(6, 3), random(6, 1));  // on x1 (dropped), x2
+  const LinearCost a(random(6, 2), random(6, 3), random(6, 1));       // on x1 (dropped), x2
   const LinearCost c(random(2, 2), Eigen::MatrixXd(), random(2, 1));  // on x1
   const LinearCost e(random(4, 3), Eigen::MatrixXd(), random(4, 1));  // on x2, the old prior
   double x1[2] = {0.2, -0.3}, x2[3] = {0.5, 1.0, -1.5};
@@ -162,8 +156,8 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
       gf += Je.transpose() * re;
     }
     const Eigen::MatrixXd H11_inv = Hf.topLeftCorner(2, 2).inverse();
-    const Eigen::MatrixXd Hs = Hf.bottomRightCorner(3, 3) -
-                               Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
+    const Eigen::MatrixXd Hs =
+        Hf.bottomRightCorner(3, 3) - Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
     const Eigen::VectorXd gs = gf.tail(3) - Hf.bottomLeftCorner(3, 2) * H11_inv * gf.head(2);
     EXPECT_LT((H - Hs).norm(), 1e-8 * Hs.norm()) << with_old_prior;
     EXPECT_LT((g - gs).norm(), 1e-8 * (1.0 + gs.norm())) << with_old_prior;

@@ -135,7 +135,7 @@ struct UnobservableCalibration {
   // Unit directions in the base IMU frame: of the sensor's position (translation) or rotation
   // axes (rotation); empty for a time offset.
   std::vector<Eigen::Vector3d> directions_I;
-  // What the window's measurements tell about each direction, over what its prior tells.
+  // What the recent motion tells about each direction, over what its prior tells.
   std::vector<double> information_ratio;
   // In plain words, e.g. "imu1 translation along (0.00, 0.00, 1.00) in imu0: rotate about
   // another axis too".

@@ -82,8 +82,6 @@ class MvisNodelet : public nodelet::Nodelet {
   std::mutex estimator_mutex_;  // guards estimator_ and everything below it
   std::unique_ptr<Estimator> estimator_;
   std::string estimator_error_;  // the estimator's last complaint, for diagnostics
-  // What the latest update says the motion leaves unobservable, in words, '; '-separated.
-  std::string joinedUnobservable() const;
   EstimatorUpdate last_update_;
   bool have_update_ = false;
   Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();

@@ -355,8 +355,8 @@ struct Estimator::Impl {
 
   void marginalizeOldest();
 
-  // Finds the calibration directions the window's measurements leave unobservable
-  // (observability.h), into `unobservable` and `uninformative` (estimator_observability.cpp).
+  // Finds the calibration directions the recent motion leaves unobservable (observability.h),
+  // into `unobservable` and `uninformative`, and holds them (estimator_observability.cpp).
   void checkObservability();
 
   // Adds the motion between states at a and b (base readings, gyro bias) to motion_information.

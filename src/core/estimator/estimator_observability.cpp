@@ -1,6 +1,5 @@
 // Degenerate-motion awareness (report Sec. 5.1, Table 2; observability.h): which calibration
 // directions the recent motion leaves unobservable, checked before every solve, and holding them.
-#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <cstdio>
 
@@ -13,7 +12,7 @@ std::string UnobservableCalibration::text() const {
   std::ostringstream s;
   s << sensor << ' ' << quantity;
   if (directions_I.empty()) {
-    s << ": vary the rig's rotation and acceleration";
+    s << ": vary the rig's rate of rotation";  // only gyroscope time offsets are checked
   } else if (directions_I.size() == 1) {
     char d[64];
     std::snprintf(d, sizeof d, "(%.2f, %.2f, %.2f)", directions_I[0].x(), directions_I[0].y(),
@@ -38,12 +37,6 @@ struct Quantity {
   Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
   Eigen::MatrixXd information;
 };
-
-Eigen::Matrix3d hat(const Eigen::Vector3d& w) {
-  Eigen::Matrix3d m;
-  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-  return m;
-}
 
 }  // namespace
 
@@ -81,9 +74,9 @@ void Estimator::Impl::addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vect
     const Eigen::Vector3d w = 0.5 * (chunks[i].second + chunks[i + 1].second);
     const Eigen::Vector3d alpha = (chunks[i + 1].second - chunks[i].second) / dt;
     const double s2 = 2.0 * density * density / (kChunk * dt * dt);
-    const Eigen::Matrix3d Jp = hat(alpha) + hat(w) * hat(w);
+    const Eigen::Matrix3d Jp = lie::hat(alpha) + lie::hat(w) * lie::hat(w);
     info.translation += dt * (Jp.transpose() * Jp - 2.0 * s2 * Eigen::Matrix3d::Identity());
-    info.rotation += dt * hat(w).transpose() * hat(w);
+    info.rotation += dt * lie::hat(w).transpose() * lie::hat(w);
     info.time_offset += dt * std::max(alpha.squaredNorm() - 3.0 * s2, 0.0);
   }
   motion_information.push_back(info);
@@ -115,8 +108,7 @@ void Estimator::Impl::checkObservability() {
                          const estimator_internal::CalibrationPrior& prior, double density) {
     if (!estimated(block) || !(density > 0.0)) return;
     const Eigen::Matrix3d R_X_I = poseRotation(block).toRotationMatrix();
-    quantities.push_back({name, "translation", block, 3, 3, prior.translation,
-                          R_X_I.transpose(),
+    quantities.push_back({name, "translation", block, 3, 3, prior.translation, R_X_I.transpose(),
                           R_X_I * sum.translation * R_X_I.transpose() / (density * density)});
   };
   for (std::size_t c = 0; c < cameras.size(); ++c) {
@@ -139,10 +131,10 @@ void Estimator::Impl::checkObservability() {
                             Eigen::Matrix3d::Identity(), sum.rotation / (density * density)});
     }
     if (estimated(a->time_offset)) {
-      quantities.push_back({name, "time offset", a->time_offset, 0, 1,
-                            Eigen::VectorXd::Constant(1, a->prior.time_offset),
-                            Eigen::Matrix3d::Identity(),
-                            Eigen::MatrixXd::Constant(1, 1, sum.time_offset / (density * density))});
+      quantities.push_back(
+          {name, "time offset", a->time_offset, 0, 1,
+           Eigen::VectorXd::Constant(1, a->prior.time_offset), Eigen::Matrix3d::Identity(),
+           Eigen::MatrixXd::Constant(1, 1, sum.time_offset / (density * density))});
     }
   }
 
@@ -203,7 +195,7 @@ Eigen::VectorXd Estimator::Impl::latestStd(const double* block) const {
     }
     if (block == a->rotation && a->gyro) {
       return have && a->std->rotation.norm() > 0 ? Eigen::VectorXd(a->std->rotation)
-                                                  : Eigen::VectorXd(a->prior.rotation);
+                                                 : Eigen::VectorXd(a->prior.rotation);
     }
     if (block == a->extrinsic && !a->gyro) {
       Vector6d sd;
@@ -258,8 +250,8 @@ void Estimator::Impl::applyHolds() {
       const Eigen::HouseholderQR<Eigen::MatrixXd> qr(D);
       const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(tangent, tangent);
       const int ambient = problem->ParameterBlockSize(block);
-      hold.subspace = std::make_unique<SubspaceManifold>(hold.base, ambient,
-                                                         Q.rightCols(tangent - D.cols()));
+      hold.subspace =
+          std::make_unique<SubspaceManifold>(hold.base, ambient, Q.rightCols(tangent - D.cols()));
       if (was_constant) problem->SetParameterBlockVariable(block);
       problem->SetManifold(block, hold.subspace.get());
     }
@@ -281,4 +273,3 @@ Eigen::MatrixXd Estimator::Impl::tangentCovariance(const ceres::Covariance& cov,
 }
 
 }  // namespace mvis
-

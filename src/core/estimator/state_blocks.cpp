@@ -61,8 +61,7 @@ SubspaceManifold::SubspaceManifold(const ceres::Manifold* base, int ambient, Eig
     : base_(base), ambient_(ambient), basis_(std::move(basis)) {}
 
 bool SubspaceManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
-  const Eigen::VectorXd d =
-      basis_ * Eigen::Map<const Eigen::VectorXd>(delta, basis_.cols());
+  const Eigen::VectorXd d = basis_ * Eigen::Map<const Eigen::VectorXd>(delta, basis_.cols());
   if (base_ != nullptr) return base_->Plus(x, d.data(), x_plus_delta);
   for (int i = 0; i < ambient_; ++i) x_plus_delta[i] = x[i] + d[i];
   return true;
