@@ -51,8 +51,10 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   }
 
   OfflineResult result;
-  estimator->setUpdateCallback(
-      [&result](const EstimatorUpdate& u) { result.update_ms.push_back(u.solve.total_s * 1e3); });
+  estimator->setUpdateCallback([&result](const EstimatorUpdate& u) {
+    result.update_ms.push_back(u.solve.total_s * 1e3);
+    if (u.solve.iterations > 0) result.solve_iterations.push_back(u.solve.iterations);
+  });
   const auto start = Clock::now();
   try {
     rosbag::View view(bag, rosbag::TopicQuery(topics));

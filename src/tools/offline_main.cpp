@@ -179,8 +179,17 @@ int main(int argc, char** argv) {
       "%ld detection messages, %ld dropped\n",
       r.bag_seconds, r.wall_seconds, r.bag_seconds / r.wall_seconds, r.imu_messages,
       r.image_messages, r.detection_messages, r.dropped_messages);
-  std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms", r.update_ms.size(),
-              percentile(r.update_ms, 0.5), percentile(r.update_ms, 0.99));
+  double update_total_ms = 0.0;
+  for (double ms : r.update_ms) update_total_ms += ms;
+  std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.1f s",
+              r.update_ms.size(), percentile(r.update_ms, 0.5), percentile(r.update_ms, 0.99),
+              update_total_ms * 1e-3);
+  if (!r.solve_iterations.empty()) {
+    double iterations = 0.0;
+    for (int i : r.solve_iterations) iterations += i;
+    std::printf("; %zu solves, %.1f iterations each", r.solve_iterations.size(),
+                iterations / r.solve_iterations.size());
+  }
   if (!r.frontend_ms.empty()) {
     std::printf("; tag detection median %.1f ms, p99 %.1f ms", percentile(r.frontend_ms, 0.5),
                 percentile(r.frontend_ms, 0.99));

@@ -1,6 +1,7 @@
 // Marginalization prior: exact on a linear problem (the reduced problem has the full problem's
 // solution), equal to a dense Schur complement on a small nonlinear problem with manifolds, and
-// a correct linear model when evaluated away from its linearization point.
+// a correct linear model when evaluated away from its linearization point; its Cholesky form
+// splits into row groups with the same cost.
 #include <ceres/ceres.h>
 #include <ceres/normal_prior.h>
 #include <ceres/sphere_manifold.h>
@@ -145,6 +146,20 @@ SmallProblem makeSmallProblem() {
   return s;
 }
 
+// The small problem's factors around the first state, ready to marginalize it.
+Marginalizer smallMarginalizer(SmallProblem* s, const PoseManifold& pose,
+                               const ceres::SphereManifold<3>& sphere) {
+  auto ptr = [&](int b) { return s->blocks[b].data(); };
+  Marginalizer m;
+  m.setManifold(ptr(0), &pose);
+  m.setManifold(ptr(2), &pose);
+  m.setManifold(ptr(4), &sphere);
+  m.addResidual(s->imu.get(), nullptr, {ptr(0), ptr(1), ptr(2), ptr(3), ptr(4)});
+  m.addResidual(s->pose_prior.get(), nullptr, {ptr(0)});
+  m.addResidual(s->sb_prior.get(), nullptr, {ptr(1)});
+  return m;
+}
+
 TEST(Marginalization, MatchesDenseSchurComplement) {
   SmallProblem s = makeSmallProblem();
   const PoseManifold pose;
@@ -152,13 +167,7 @@ TEST(Marginalization, MatchesDenseSchurComplement) {
   const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &pose, nullptr, &sphere};
   auto ptr = [&](int b) { return s.blocks[b].data(); };
 
-  Marginalizer marginalizer;
-  marginalizer.setManifold(ptr(0), &pose);
-  marginalizer.setManifold(ptr(2), &pose);
-  marginalizer.setManifold(ptr(4), &sphere);
-  marginalizer.addResidual(s.imu.get(), nullptr, {ptr(0), ptr(1), ptr(2), ptr(3), ptr(4)});
-  marginalizer.addResidual(s.pose_prior.get(), nullptr, {ptr(0)});
-  marginalizer.addResidual(s.sb_prior.get(), nullptr, {ptr(1)});
+  Marginalizer marginalizer = smallMarginalizer(&s, pose, sphere);
   auto made = marginalizer.marginalize({ptr(0), ptr(1)});
   ASSERT_TRUE(made.ok()) << made.status().message();
   const MarginalizationFactor& prior = *made.value();
@@ -214,6 +223,88 @@ TEST(Marginalization, MatchesDenseSchurComplement) {
       test::jacobianMismatch(test::analyticTangentJacobians(prior, kept, kept_manifolds),
                              test::numericTangentJacobians(prior, kept, kept_manifolds, 1e-6)),
       1e-5);
+}
+
+// With priors on the kept blocks too, the Schur complement is positive definite: the prior comes
+// from its Cholesky factor, upper triangular over [pose_j 6, sb_j 9, g 2], and splits into one
+// residual block per kept block whose costs add up to the whole prior's.
+TEST(Marginalization, CholeskyPriorIsTriangularAndSplitsByBlock) {
+  SmallProblem s = makeSmallProblem();
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  auto ptr = [&](int b) { return s.blocks[b].data(); };
+  const std::unique_ptr<PosePriorFactor> pose_j_prior(PosePriorFactor::fromStd(
+      poseToSE3(ptr(2)), Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.05)));
+
+  Marginalizer marginalizer = smallMarginalizer(&s, pose, sphere);
+  marginalizer.addResidual(pose_j_prior.get(), nullptr, {ptr(2)});
+  marginalizer.addResidual(s.sb_prior.get(), nullptr, {ptr(3)});
+  auto made = marginalizer.marginalize({ptr(0), ptr(1)});
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  const MarginalizationFactor& prior = *made.value();
+  const Eigen::MatrixXd& J0 = prior.J0();
+  ASSERT_EQ(J0.rows(), 17);
+  ASSERT_EQ(J0.cols(), 17);
+  // Upper triangular (exact zeros below the diagonal), with a positive diagonal.
+  EXPECT_EQ(J0.triangularView<Eigen::StrictlyLower>().toDenseMatrix().cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT(J0.diagonal().minCoeff(), 0.0);
+
+  // Equal to the dense Schur complement (the same check as above, now full rank).
+  const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &pose, nullptr, &sphere};
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(15 + 6 + 9 + 6 + 9, 32);
+  Eigen::VectorXd r(J.rows());
+  const int offsets[5] = {0, 6, 15, 21, 30};
+  const auto imu_J = test::analyticTangentJacobians(*s.imu, s.blocks, manifolds);
+  for (int b = 0; b < 5; ++b) J.block(0, offsets[b], 15, imu_J[b].cols()) = imu_J[b];
+  r.head(15) = test::evaluateResiduals(*s.imu, s.blocks);
+  J.block(15, 0, 6, 6) = test::analyticTangentJacobians(*s.pose_prior, {s.blocks[0]}, {&pose})[0];
+  r.segment(15, 6) = test::evaluateResiduals(*s.pose_prior, {s.blocks[0]});
+  J.block(21, 6, 9, 9) = test::analyticTangentJacobians(*s.sb_prior, {s.blocks[1]}, {nullptr})[0];
+  r.segment(21, 9) = test::evaluateResiduals(*s.sb_prior, {s.blocks[1]});
+  J.block(30, 15, 6, 6) = test::analyticTangentJacobians(*pose_j_prior, {s.blocks[2]}, {&pose})[0];
+  r.segment(30, 6) = test::evaluateResiduals(*pose_j_prior, {s.blocks[2]});
+  J.block(36, 21, 9, 9) = test::analyticTangentJacobians(*s.sb_prior, {s.blocks[3]}, {nullptr})[0];
+  r.segment(36, 9) = test::evaluateResiduals(*s.sb_prior, {s.blocks[3]});
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd g = J.transpose() * r;
+  const int m = 15, k = 17;
+  const Eigen::MatrixXd Hmm_inv = H.topLeftCorner(m, m).inverse();
+  const Eigen::MatrixXd Hs =
+      H.bottomRightCorner(k, k) - H.bottomLeftCorner(k, m) * Hmm_inv * H.topRightCorner(m, k);
+  const Eigen::VectorXd gs = g.tail(k) - H.bottomLeftCorner(k, m) * Hmm_inv * g.head(m);
+  const Eigen::VectorXd inv_sqrt_d = H.diagonal().tail(k).cwiseSqrt().cwiseInverse();
+  EXPECT_LT((inv_sqrt_d.asDiagonal() * (J0.transpose() * J0 - Hs) * inv_sqrt_d.asDiagonal())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-10);
+  EXPECT_LT((inv_sqrt_d.asDiagonal() * (J0.transpose() * prior.r0() - gs)).cwiseAbs().maxCoeff(),
+            1e-10);
+
+  // Split: one factor per kept block, on that block and the ones after it.
+  const auto parts = prior.splitRows();
+  ASSERT_EQ(parts.size(), 3u);
+  EXPECT_EQ(parts[0]->parameterBlocks(), (std::vector<double*>{ptr(2), ptr(3), ptr(4)}));
+  EXPECT_EQ(parts[1]->parameterBlocks(), (std::vector<double*>{ptr(3), ptr(4)}));
+  EXPECT_EQ(parts[2]->parameterBlocks(), (std::vector<double*>{ptr(4)}));
+  EXPECT_EQ(parts[0]->num_residuals() + parts[1]->num_residuals() + parts[2]->num_residuals(), 17);
+  // Their costs add up to the whole prior's away from the linearization point.
+  std::vector<std::vector<double>> moved = {s.blocks[2], s.blocks[3], s.blocks[4]};
+  Eigen::VectorXd dx(17);
+  for (int i = 0; i < 17; ++i) dx[i] = 1e-2 * std::cos(0.5 + i);
+  std::vector<double> tmp = moved[0];
+  pose.Plus(tmp.data(), dx.data(), moved[0].data());
+  for (int i = 0; i < 9; ++i) moved[1][i] += dx[6 + i];
+  tmp = moved[2];
+  sphere.Plus(tmp.data(), dx.data() + 15, moved[2].data());
+  const double whole = test::evaluateResiduals(prior, moved).squaredNorm();
+  double sum = 0.0;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    sum += test::evaluateResiduals(*parts[i],
+                                   std::vector<std::vector<double>>(moved.begin() + i, moved.end()))
+               .squaredNorm();
+  }
+  EXPECT_GT(whole, 1.0);
+  EXPECT_LT(std::abs(sum - whole), 1e-9 * whole);
 }
 
 TEST(PosePriorFactor, JacobiansMatchCentralDifferences) {

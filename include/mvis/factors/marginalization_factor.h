@@ -1,19 +1,27 @@
-// Marginalization prior: what the states leaving the window knew, as one Ceres cost.
+// Marginalization prior: what the states leaving the window knew, as a Ceres cost.
 //
 // The residual blocks touching the dropped parameter blocks x_m are linearized at the current
 // estimate x0 in the tangent spaces of their blocks (robust losses by their first-order weight
 // sqrt(rho'(s))): r(x0 + dx) ~ r + J dx. With H = J^T J and b = J^T r split into dropped (m) and
 // kept (k) parts, the Schur complement
 //   H* = H_kk - H_km H_mm^-1 H_mk,   b* = b_k - H_km H_mm^-1 b_m
-// is the information the dropped blocks leave on the kept ones. Both H_mm^-1 and the
-// factorization of H* use the eigen-decomposition of the Jacobi-scaled matrix
-// D^-1/2 A D^-1/2 (D = diag(A)), since the blocks' information spans many orders of magnitude;
-// scaled eigenvalues l <= eps count as zero. With D^-1/2 H* D^-1/2 = V diag(l) V^T, the prior
-// is the cost ||r0 + J0 dx_k||^2 with
-//   J0 = diag(sqrt(l)) V^T D^1/2,   r0 = diag(1 / sqrt(l)) V^T D^-1/2 b*,
-//   dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean difference otherwise).
-// Its Jacobian is J0 times each block's MinusJacobian, first-estimate by construction: it stays
-// at the linearization point x0.
+// is the information the dropped blocks leave on the kept ones. The blocks' information spans
+// many orders of magnitude (biases ~1e10, gravity ~1), so H_mm^-1 and the factorization of H*
+// work on the Jacobi-scaled matrix S = D^-1/2 A D^-1/2 (D = diag(A)). The prior is the cost
+// ||r0 + J0 dx_k||^2, dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean
+// difference otherwise), with
+//   S = L L^T (Cholesky, when every pivot exceeds 1e-10: clearly positive definite):
+//     J0 = L^T D^1/2,   r0 = L^-1 D^-1/2 b*;
+//   S = V diag(l) V^T otherwise (eigen-decomposition; scaled eigenvalues l <= eps count as zero):
+//     J0 = diag(sqrt(l)) V^T D^1/2,   r0 = diag(1 / sqrt(l)) V^T D^-1/2 b*.
+// Both give J0^T J0 = H* and J0^T r0 = b*; Cholesky costs about a twentieth as much. Its
+// Jacobian is J0 times each block's MinusJacobian, first-estimate by construction: it stays at
+// the linearization point x0.
+//
+// The Cholesky J0 is upper triangular: the rows of kept block i touch only blocks i, i+1, ...,
+// so splitRows() hands Ceres one residual block per kept block, whose J^T J costs about a third
+// of the dense square's. That matters once the prior spans many auxiliary sensors: it is dense
+// over every calibration block and the next state.
 //
 // Uninformative directions: residuals added as `projected` must not inform the tangent
 // directions D (orthonormal columns) set for some blocks. With U the columns D placed at their
@@ -100,6 +108,10 @@ class MarginalizationFactor final : public ceres::CostFunction {
 
   // Parameter blocks in the order Ceres must be given them.
   std::vector<double*> parameterBlocks() const;
+  // The same cost as residual blocks that touch fewer parameter blocks: rows are grouped by the
+  // first block they touch (their first nonzero column), each group a factor on that block and
+  // the ones after it. Their costs sum to this one's. A dense J0 gives one factor.
+  std::vector<std::unique_ptr<MarginalizationFactor>> splitRows() const;
   const std::vector<Block>& blocks() const { return blocks_; }
   const Eigen::MatrixXd& J0() const { return J0_; }
   const Eigen::VectorXd& r0() const { return r0_; }

@@ -31,6 +31,7 @@ struct OfflineResult {
   double bag_seconds = 0.0;                // span of the messages used
   double wall_seconds = 0.0;               // time taken
   std::vector<double> update_ms;           // per estimator update (solve and bookkeeping)
+  std::vector<int> solve_iterations;       // per update that solved
   std::vector<double> frontend_ms;         // per image (detection)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;

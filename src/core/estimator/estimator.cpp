@@ -50,7 +50,7 @@ void Estimator::Impl::newProblem() {
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   po.enable_fast_removal = true;
   problem = std::make_unique<ceres::Problem>(po);
-  prior = ResidualRecord{};
+  prior.clear();
 }
 
 Status Estimator::Impl::withWarning(Status s) {

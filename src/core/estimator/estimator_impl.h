@@ -163,7 +163,8 @@ struct Estimator::Impl {
   std::unique_ptr<ceres::LossFunction> huber;
   std::unique_ptr<ceres::Problem> problem;
   std::deque<std::unique_ptr<State>> states;
-  ResidualRecord prior;  // the marginalization prior, if any (prior.id != nullptr)
+  // The marginalization prior, if any: its row groups (MarginalizationFactor::splitRows).
+  std::vector<ResidualRecord> prior;
   std::deque<ImuMeasurement> imu;
   std::deque<TagFrame> base_frames;
   std::vector<std::deque<TagFrame>> other_frames;  // per camera (index 0 unused)

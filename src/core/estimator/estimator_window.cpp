@@ -233,12 +233,14 @@ void Estimator::Impl::marginalizeOldest() {
   Marginalizer m;
   std::vector<const ResidualRecord*> records;
   for (const auto& r : oldest->residuals) records.push_back(&r);
-  if (prior.id != nullptr) records.push_back(&prior);
-  for (const auto* r : records) {
+  const std::size_t measurements = records.size();
+  for (const auto& r : prior) records.push_back(&r);
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const ResidualRecord* r = records[i];
     for (double* block : r->blocks) m.setManifold(block, baseManifold(block));
     // The measurements leaving add nothing along what they cannot observe; the old prior
     // keeps what earlier motion told.
-    m.addResidual(r->cost, r->loss, r->blocks, r != &prior);
+    m.addResidual(r->cost, r->loss, r->blocks, i < measurements);
   }
   for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
   std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
@@ -252,8 +254,8 @@ void Estimator::Impl::marginalizeOldest() {
   }
   auto made = m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
   // Remove the old prior and the state (with every residual on it).
-  if (prior.id != nullptr) problem->RemoveResidualBlock(prior.id);
-  prior = ResidualRecord{};
+  for (const auto& r : prior) problem->RemoveResidualBlock(r.id);
+  prior.clear();
   // Residual blocks one by one in their recorded order: Ceres's own removal of a parameter
   // block's dependents walks a hash set, whose order (pointer values) would make results
   // differ from run to run in the last digits, and the window amplifies that.
@@ -265,10 +267,15 @@ void Estimator::Impl::marginalizeOldest() {
     status_text = "marginalization failed (" + made.status().message() + "); prior dropped";
     return;
   }
-  MarginalizationFactor* factor = std::move(made).value().release();
-  prior.blocks = factor->parameterBlocks();
-  prior.cost = factor;
-  prior.id = problem->AddResidualBlock(factor, nullptr, prior.blocks);
+  // One residual block per row group: Ceres's J^T J of the dense prior is its largest cost
+  // with many auxiliary sensors.
+  for (auto& rows : made.value()->splitRows()) {
+    ResidualRecord r;
+    r.blocks = rows->parameterBlocks();
+    r.cost = rows.get();
+    r.id = problem->AddResidualBlock(rows.release(), nullptr, r.blocks);
+    prior.push_back(std::move(r));
+  }
 }
 
 void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point start) {

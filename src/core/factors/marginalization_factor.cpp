@@ -1,6 +1,8 @@
 #include "mvis/factors/marginalization_factor.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 namespace mvis {
@@ -35,8 +37,39 @@ ScaledEigen scaledEigen(const Eigen::MatrixXd& A, double eps) {
   return out;
 }
 
+// Cholesky factor of the Jacobi-scaled matrix, D^-1/2 A D^-1/2 = L L^T, when A is clearly
+// positive definite: every pivot L_ii^2 above kPivot (the scaled diagonal is 1, so pivots are
+// relative; a rank-deficient matrix leaves round-off pivots near 1e-16). Otherwise the
+// eigen-decomposition decides what counts as zero.
+constexpr double kPivot = 1e-10;
+
+struct ScaledCholesky {
+  Eigen::VectorXd sqrt_d;  // D^1/2
+  Eigen::MatrixXd L;       // lower triangular
+};
+
+bool scaledCholesky(const Eigen::MatrixXd& A, ScaledCholesky* out) {
+  const Eigen::VectorXd d = A.diagonal();
+  if ((d.array() <= 0.0).any()) return false;
+  out->sqrt_d = d.cwiseSqrt();
+  const Eigen::VectorXd inv = out->sqrt_d.cwiseInverse();
+  Eigen::MatrixXd B = inv.asDiagonal() * A * inv.asDiagonal();
+  Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (B + B.transpose()));
+  if (llt.info() != Eigen::Success) return false;
+  out->L = llt.matrixL();
+  return out->L.diagonal().cwiseAbs2().minCoeff() > kPivot;
+}
+
 // Pseudo-inverse of a symmetric positive semi-definite matrix.
 Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& A, double eps) {
+  ScaledCholesky c;
+  if (scaledCholesky(A, &c)) {
+    // A^-1 = D^-1/2 L^-T L^-1 D^-1/2.
+    Eigen::MatrixXd Li = Eigen::MatrixXd::Identity(A.rows(), A.cols());
+    c.L.triangularView<Eigen::Lower>().solveInPlace(Li);
+    const Eigen::MatrixXd M = Li * c.sqrt_d.cwiseInverse().asDiagonal();
+    return M.transpose() * M;
+  }
   const ScaledEigen e = scaledEigen(A, eps);
   const Eigen::VectorXd inv_d = e.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
   Eigen::MatrixXd inner = Eigen::MatrixXd::Zero(A.rows(), A.cols());
@@ -191,7 +224,28 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
   const Eigen::VectorXd& gs = red.g;
   const auto k = Hs.rows();
 
-  // Hs = J0^T J0 with J0 = diag(sqrt(l)) V^T D^1/2; r0 solves J0^T r0 = gs.
+  std::vector<MarginalizationFactor::Block> kept;
+  for (std::size_t i = red.dropped; i < red.entries.size(); ++i) {
+    const Entry& e = red.entries[i];
+    MarginalizationFactor::Block block;
+    block.address = e.address;
+    block.manifold = e.manifold;
+    block.ambient = e.ambient;
+    block.tangent = e.tangent;
+    block.x0.assign(e.address, e.address + e.ambient);
+    kept.push_back(std::move(block));
+  }
+
+  // Hs = J0^T J0 with J0 = L^T D^1/2 (clearly positive definite), r0 = L^-1 D^-1/2 gs.
+  ScaledCholesky c;
+  if (scaledCholesky(Hs, &c)) {
+    Eigen::MatrixXd J0 = c.L.transpose() * c.sqrt_d.asDiagonal();
+    Eigen::VectorXd r0 = c.sqrt_d.cwiseInverse().asDiagonal() * gs;
+    c.L.triangularView<Eigen::Lower>().solveInPlace(r0);
+    return std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+  }
+  // Otherwise J0 = diag(sqrt(l)) V^T D^1/2 over the scaled eigenvalues l > eps; r0 solves
+  // J0^T r0 = gs.
   const ScaledEigen es = scaledEigen(Hs, eps);
   if (es.kept.empty()) return Status::Error("marginalization left no information");
   const Eigen::VectorXd inv_d = es.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
@@ -203,18 +257,6 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
     const Eigen::VectorXd v = es.V.col(es.kept[i]);
     J0.row(i) = s * v.transpose() * es.sqrt_d.asDiagonal();
     r0[i] = v.dot(gs_scaled) / s;
-  }
-
-  std::vector<MarginalizationFactor::Block> kept;
-  for (std::size_t i = red.dropped; i < red.entries.size(); ++i) {
-    const Entry& e = red.entries[i];
-    MarginalizationFactor::Block block;
-    block.address = e.address;
-    block.manifold = e.manifold;
-    block.ambient = e.ambient;
-    block.tangent = e.tangent;
-    block.x0.assign(e.address, e.address + e.ambient);
-    kept.push_back(std::move(block));
   }
   return std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
 }
@@ -229,6 +271,42 @@ MarginalizationFactor::MarginalizationFactor(std::vector<Block> blocks, Eigen::M
 std::vector<double*> MarginalizationFactor::parameterBlocks() const {
   std::vector<double*> out;
   for (const auto& b : blocks_) out.push_back(b.address);
+  return out;
+}
+
+std::vector<std::unique_ptr<MarginalizationFactor>> MarginalizationFactor::splitRows() const {
+  std::vector<int> offsets;
+  int total = 0;
+  for (const auto& b : blocks_) {
+    offsets.push_back(total);
+    total += b.tangent;
+  }
+  // The first block each row touches.
+  std::vector<std::vector<int>> rows_of(blocks_.size());
+  for (int r = 0; r < J0_.rows(); ++r) {
+    std::size_t first = blocks_.size() - 1;
+    for (std::size_t i = 0; i < blocks_.size(); ++i) {
+      if ((J0_.row(r).segment(offsets[i], blocks_[i].tangent).array() != 0.0).any()) {
+        first = i;
+        break;
+      }
+    }
+    rows_of[first].push_back(r);
+  }
+  std::vector<std::unique_ptr<MarginalizationFactor>> out;
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    const std::vector<int>& rows = rows_of[i];
+    if (rows.empty()) continue;
+    const int cols = total - offsets[i];
+    Eigen::MatrixXd J(rows.size(), cols);
+    Eigen::VectorXd r(rows.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      J.row(k) = J0_.row(rows[k]).tail(cols);
+      r[k] = r0_[rows[k]];
+    }
+    std::vector<Block> blocks(blocks_.begin() + i, blocks_.end());
+    out.push_back(std::make_unique<MarginalizationFactor>(std::move(blocks), std::move(J), r));
+  }
   return out;
 }
 
