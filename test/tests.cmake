@@ -70,3 +70,9 @@ add_dependencies(tests mvis_replay_data)
 add_rostest(test/ros/replay.test ARGS data:=${MVIS_REPLAY_DATA}
   DEPENDENCIES mvis_ros mvis_node mvis_replay_data)
 mvis_core_test(test_initialization test/unit/test_initialization.cpp)
+mvis_core_test(test_estimate_log test/unit/test_estimate_log.cpp)
+
+# Evaluation scripts (scripts/mvis_evaluation.py, scripts/monte_carlo): Python unit tests on
+# synthetic inputs with known answers, with Debian's python3 and numpy/matplotlib.
+add_test(NAME python_evaluation
+  COMMAND /usr/bin/python3 -m unittest discover -s ${PROJECT_SOURCE_DIR}/test/python -v)

@@ -398,6 +398,8 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   const std::string base = options_.frame_prefix + rig_.inertial[0].name;
   std::vector<geometry_msgs::TransformStamped> transforms;
   const Rig calibration = estimator_->calibration();
+  if (u.solve.iterations > 0) estimate_log_.addCalibration(u.state.stamp_ns, calibration);
+  estimate_log_.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
   for (const auto& cam : calibration.cameras) {
     transforms.push_back(
         stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
@@ -541,8 +543,12 @@ std::string MvisNodelet::saveResult() {
     for (const auto& s : estimator_->trajectory()) poses.emplace_back(s.stamp_ns, s.T_G_I);
     status = writeTumTrajectory(dir + "/trajectory.tum", poses);
   }
+  if (status.ok()) status = estimate_log_.write(dir);
   if (!status.ok()) return status.message();
-  NODELET_INFO_STREAM("mvis: wrote the calibration and trajectory.tum to " << dir);
+  NODELET_INFO_STREAM(
+      "mvis: wrote the calibration, trajectory.tum and the estimate log (calibration.csv, "
+      "pose_covariance.csv) to "
+      << dir);
   return "";
 }
 

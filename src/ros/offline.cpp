@@ -51,9 +51,13 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   }
 
   OfflineResult result;
-  estimator->setUpdateCallback([&result](const EstimatorUpdate& u) {
+  estimator->setUpdateCallback([&result, &estimator](const EstimatorUpdate& u) {
     result.update_ms.push_back(u.solve.total_s * 1e3);
-    if (u.solve.iterations > 0) result.solve_iterations.push_back(u.solve.iterations);
+    if (u.solve.iterations > 0) {
+      result.solve_iterations.push_back(u.solve.iterations);
+      result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
+    }
+    result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
   });
   const auto start = Clock::now();
   try {

@@ -169,6 +169,7 @@ int main(int argc, char** argv) {
   std::vector<mvis::StampedPose> poses;
   for (const auto& s : r.trajectory) poses.emplace_back(s.stamp_ns, s.T_G_I);
   if (saved.ok()) saved = mvis::writeTumTrajectory(output_dir + "/trajectory.tum", poses);
+  if (saved.ok()) saved = r.log.write(output_dir);
   if (!saved.ok()) {
     std::fprintf(stderr, "mvis_offline: %s\n", saved.message().c_str());
     return 1;
@@ -205,7 +206,9 @@ int main(int argc, char** argv) {
                   r.trajectory.size());
     }
   }
-  std::printf("\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum)\n",
-              output_dir.c_str());
+  std::printf(
+      "\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
+      "calibration.csv, pose_covariance.csv)\n",
+      output_dir.c_str());
   return 0;
 }

@@ -19,6 +19,7 @@
 
 #include "mvis/estimator/estimator.h"
 #include "mvis/frontend/tag_frontend.h"
+#include "mvis/rig/estimate_log.h"
 #include "mvis/rig/rig.h"
 #include "mvis/ros/nodelet_options.h"
 
@@ -84,6 +85,7 @@ class MvisNodelet : public nodelet::Nodelet {
   std::string estimator_error_;  // the estimator's last complaint, for diagnostics
   EstimatorUpdate last_update_;
   bool have_update_ = false;
+  EstimateLog estimate_log_;  // calibration after every solve and pose covariances, for results
   Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();

@@ -14,6 +14,7 @@
 #include "mvis/common/status.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/frontend/tag_frontend.h"
+#include "mvis/rig/estimate_log.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {
@@ -32,6 +33,7 @@ struct OfflineResult {
   double wall_seconds = 0.0;               // time taken
   std::vector<double> update_ms;           // per estimator update (solve and bookkeeping)
   std::vector<int> solve_iterations;       // per update that solved
+  EstimateLog log;                         // calibration after every solve, pose covariances
   std::vector<double> frontend_ms;         // per image (detection)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;

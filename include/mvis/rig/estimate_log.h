@@ -1,0 +1,75 @@
+// The estimate over time, for convergence plots, 3-sigma bounds and NEES (scripts/evaluate).
+// Two CSV files in the result directory; their columns are stable (new ones only ever appended).
+//
+// calibration.csv: one row per calibrated sensor (every camera, auxiliary IMU and gyroscope)
+// after every solve:
+//   stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,
+//   std_rx,std_ry,std_rz,std_px,std_py,std_pz,std_time_offset
+//   stamp        base-clock time of the newest window state [s] ("sec.nsec", exact)
+//   sensor       name (cam0, imu1, ...); kind: camera | imu | gyroscope
+//   rx ry rz     rotation vector Log(R) [rad] of T_cam_imu (cameras) or T_i_b (IMUs, gyroscopes)
+//   px py pz     its translation [m] (nan for gyroscopes)
+//   time_offset  timeshift_cam_imu (cameras) or time_offset (IMUs, gyroscopes) [s]
+//   std_*        standard deviations of the same, rotation in the tangent of the estimate (right
+//                perturbation, doc/conventions.md); nan before the first covariance, 0 for a
+//                quantity held constant; they are the latest covariance's (computed every
+//                `covariance_every` solves)
+//
+// pose_covariance.csv: one row per covariance of the newest window pose:
+//   stamp,tx,ty,tz,qx,qy,qz,qw,c00,c01,...,c55
+//   the pose T_G_I of imu0 in the world (board) frame [m, Hamilton quaternion x y z w] and the
+//   row-major 6x6 covariance of its tangent [dtheta (rad), dp (m)]: R = R_hat Exp(dtheta),
+//   p = p_hat + dp.
+//
+// A long live run stays bounded: past `max_rows` rows a table keeps the rows of every other
+// stamp (the whole run at half the time resolution) and goes on.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "mvis/common/lie.h"
+#include "mvis/common/status.h"
+#include "mvis/common/time.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+class EstimateLog {
+ public:
+  explicit EstimateLog(std::size_t max_rows = 200000) : max_rows_(max_rows) {}
+
+  // Every calibrated sensor of `rig` (all but the base IMU) at `stamp_ns`.
+  void addCalibration(TimeNs stamp_ns, const Rig& rig);
+  // The newest pose and its covariance (skipped when the covariance is not finite).
+  void addPose(TimeNs stamp_ns, const SE3& T_G_I, const Eigen::Matrix<double, 6, 6>& covariance);
+
+  // Writes calibration.csv and pose_covariance.csv into `dir` (which must exist).
+  Status write(const std::string& dir) const;
+
+  std::size_t calibrationRows() const { return calibration_.size(); }
+  std::size_t poseRows() const { return poses_.size(); }
+  void clear();
+
+ private:
+  struct CalibrationRow {
+    TimeNs stamp_ns;
+    int sensor;  // index into names_
+    Eigen::Matrix<double, 7, 1> value, std;
+  };
+  struct PoseRow {
+    TimeNs stamp_ns;
+    SE3 T_G_I;
+    Eigen::Matrix<double, 6, 6> covariance;
+  };
+  int sensorIndex(const std::string& name, const char* kind);
+
+  std::size_t max_rows_;
+  std::vector<std::string> names_, kinds_;
+  std::vector<CalibrationRow> calibration_;
+  std::vector<PoseRow> poses_;
+};
+
+}  // namespace mvis

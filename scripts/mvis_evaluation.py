@@ -1,0 +1,413 @@
+"""Metrics and plots of an mvis result against a simulation's truth (scripts/evaluate,
+scripts/monte_carlo). Python 3 with Debian's numpy, matplotlib and yaml.
+
+Inputs (doc/conventions.md, include/mvis/rig/estimate_log.h):
+  RESULT_DIR/calibration.csv      every calibrated sensor after every solve, with std
+  RESULT_DIR/pose_covariance.csv  newest pose and its 6x6 tangent covariance, now and then
+  RESULT_DIR/trajectory.tum       every window state (imu0 in the board frame)
+  TRUTH_DIR/kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum
+
+Conventions: a rotation's error is the tangent delta with R_true = R_est Exp(delta) (right
+perturbation, the frame of the reported standard deviations); a translation's error is
+p_true - p_est; a time offset's, t_true - t_est.
+"""
+import csv
+import math
+import os
+
+import numpy as np
+import yaml
+
+# ---------------------------------------------------------------- SO(3) / SE(3) helpers
+
+
+def hat(v):
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def exp_so3(phi):
+    phi = np.asarray(phi, dtype=float)
+    angle = np.linalg.norm(phi)
+    if angle < 1e-12:
+        return np.eye(3) + hat(phi)
+    k = hat(phi / angle)
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
+
+
+def log_so3(R):
+    cos = max(-1.0, min(1.0, (np.trace(R) - 1.0) / 2.0))
+    angle = math.acos(cos)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-7:
+        return 0.5 * w
+    if math.pi - angle < 1e-6:
+        # Near pi: the axis from the symmetric part.
+        B = (R + np.eye(3)) / 2.0
+        axis = np.sqrt(np.maximum(np.diag(B), 0.0))
+        i = int(np.argmax(axis))
+        axis[:] = B[i] / axis[i]
+        return angle * axis / np.linalg.norm(axis)
+    return angle / (2.0 * math.sin(angle)) * w
+
+
+def quat_to_rot(x, y, z, w):
+    """Hamilton quaternion (x y z w) to a rotation matrix."""
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def rotation_error(R_true, R_est):
+    """delta with R_true = R_est Exp(delta) [rad]."""
+    return log_so3(R_est.T @ R_true)
+
+
+# ---------------------------------------------------------------- reading
+
+
+def parse_stamp(text):
+    """'sec.nsec' (or a plain number) to integer nanoseconds, exactly."""
+    text = text.strip()
+    negative = text.startswith("-")
+    if negative:
+        text = text[1:]
+    if "." in text:
+        sec, frac = text.split(".", 1)
+        ns = int(sec or "0") * 1000000000 + int((frac + "000000000")[:9])
+    else:
+        ns = int(text) * 1000000000
+    return -ns if negative else ns
+
+
+def read_tum(path):
+    """Stamps [ns] (int64 array), positions (n x 3), rotations (n x 3 x 3)."""
+    stamps, positions, rotations = [], [], []
+    with open(path) as f:
+        for line in f:
+            if not line.strip() or line.startswith("#"):
+                continue
+            fields = line.split()
+            stamps.append(parse_stamp(fields[0]))
+            v = [float(x) for x in fields[1:8]]
+            positions.append(v[0:3])
+            rotations.append(quat_to_rot(*v[3:7]))
+    return (np.array(stamps, dtype=np.int64), np.array(positions).reshape(-1, 3),
+            np.array(rotations).reshape(-1, 3, 3))
+
+
+def read_calibration_csv(path):
+    """{sensor: {"kind", "t" [ns], "value" (n x 7), "std" (n x 7)}} in file order; columns
+    [rx ry rz px py pz time_offset]."""
+    out = {}
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            entry = out.setdefault(row["sensor"], {"kind": row["kind"], "t": [], "value": [],
+                                                   "std": []})
+            entry["t"].append(parse_stamp(row["stamp"]))
+            keys = ["rx", "ry", "rz", "px", "py", "pz", "time_offset"]
+            entry["value"].append([float(row[k]) for k in keys])
+            entry["std"].append([float(row["std_" + k]) for k in keys])
+    for entry in out.values():
+        entry["t"] = np.array(entry["t"], dtype=np.int64)
+        entry["value"] = np.array(entry["value"]).reshape(-1, 7)
+        entry["std"] = np.array(entry["std"]).reshape(-1, 7)
+    return out
+
+
+def read_pose_covariance_csv(path):
+    """Stamps [ns], positions, rotations, covariances (n x 6 x 6, [dtheta; dp])."""
+    stamps, positions, rotations, covariances = [], [], [], []
+    if not os.path.exists(path):
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(
+            (0, 6, 6))
+    with open(path) as f:
+        reader = csv.reader(f)
+        next(reader)
+        for row in reader:
+            stamps.append(parse_stamp(row[0]))
+            v = [float(x) for x in row[1:]]
+            positions.append(v[0:3])
+            rotations.append(quat_to_rot(*v[3:7]))
+            covariances.append(np.array(v[7:43]).reshape(6, 6))
+    return (np.array(stamps, dtype=np.int64), np.array(positions).reshape(-1, 3),
+            np.array(rotations).reshape(-1, 3, 3), np.array(covariances).reshape(-1, 6, 6))
+
+
+def matrix4(rows):
+    T = np.array(rows, dtype=float)
+    return T[:3, :3], T[:3, 3]
+
+
+def read_truth_calibration(truth_dir):
+    """{sensor: (R, p, time_offset)}: T_cam_imu of cameras, T_i_b of IMUs and gyroscopes."""
+    out = {}
+    with open(os.path.join(truth_dir, "kalibr_imucam_chain.yaml")) as f:
+        for name, cam in (yaml.safe_load(f) or {}).items():
+            R, p = matrix4(cam["T_cam_imu"])
+            out[name] = (R, p, float(cam.get("timeshift_cam_imu", 0.0)))
+    path = os.path.join(truth_dir, "kalibr_imu_chain.yaml")
+    if os.path.exists(path):
+        with open(path) as f:
+            for name, imu in (yaml.safe_load(f) or {}).items():
+                R, p = matrix4(imu["T_i_b"])
+                out[name] = (R, p, float(imu.get("time_offset", 0.0)))
+    return out
+
+
+# ---------------------------------------------------------------- calibration errors
+
+
+def calibration_errors(history, truth):
+    """Per sensor: {"kind", "t" [s from the first row], "error" (n x 7: rotation [rad],
+    translation [m], time offset [s]), "std" (n x 7)} for the sensors that have a truth."""
+    out = {}
+    t0 = min(h["t"][0] for h in history.values())
+    for name, h in history.items():
+        if name not in truth:
+            continue
+        R_t, p_t, td_t = truth[name]
+        err = np.zeros_like(h["value"])
+        for i, v in enumerate(h["value"]):
+            err[i, 0:3] = rotation_error(R_t, exp_so3(v[0:3]))
+            err[i, 3:6] = p_t - v[3:6]
+            err[i, 6] = td_t - v[6]
+        out[name] = {"kind": h["kind"], "t": (h["t"] - t0) * 1e-9, "error": err, "std": h["std"]}
+    return out
+
+
+def final_calibration_table(errors):
+    """Rows (sensor, quantity, unit, |final error|, 3 sigma (norm of per-axis 3 sigma), per-axis
+    inside count, axes, per-axis error/sigma) for rotation [deg], translation [mm], time offset
+    [ms]."""
+    rows = []
+    for name, e in errors.items():
+        err, std = e["error"][-1], e["std"][-1]
+        for quantity, cols, scale, unit in (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
+                                            ("translation", slice(3, 6), 1e3, "mm"),
+                                            ("time offset", slice(6, 7), 1e3, "ms")):
+            x, s = err[cols], std[cols]
+            if np.all(np.isnan(x)):
+                continue  # a gyroscope's translation
+            held = np.all(s == 0.0)
+            inside = int(np.sum(np.abs(x) <= 3.0 * s)) if not held else None
+            rows.append({"sensor": name, "quantity": quantity, "unit": unit,
+                         "error": float(np.linalg.norm(x) * scale),
+                         "three_sigma": float(np.linalg.norm(3.0 * s) * scale),
+                         "inside": inside, "axes": int(x.size),
+                         # error / sigma per axis: standard normal when the sigma is honest
+                         "normalized": [] if held else [float(v) for v in x / s]})
+    return rows
+
+
+# ---------------------------------------------------------------- trajectory metrics
+
+
+def interpolate_truth(truth, stamps):
+    """Truth poses at `stamps` [ns]: linear in position, geodesic in rotation; stamps outside
+    the truth are dropped. Returns (mask, positions, rotations)."""
+    t_true, p_true, R_true = truth
+    mask = (stamps >= t_true[0]) & (stamps <= t_true[-1])
+    positions, rotations = [], []
+    for t in stamps[mask]:
+        j = int(np.searchsorted(t_true, t))
+        if t_true[min(j, len(t_true) - 1)] == t:
+            positions.append(p_true[j])
+            rotations.append(R_true[j])
+            continue
+        i = j - 1
+        a = (t - t_true[i]) / float(t_true[j] - t_true[i])
+        positions.append((1 - a) * p_true[i] + a * p_true[j])
+        rotations.append(R_true[i] @ exp_so3(a * log_so3(R_true[i].T @ R_true[j])))
+    return mask, np.array(positions).reshape(-1, 3), np.array(rotations).reshape(-1, 3, 3)
+
+
+def align_se3(p_est, p_true):
+    """R, t minimizing sum |p_true - (R p_est + t)|^2 (Horn/Umeyama without scale)."""
+    mu_e, mu_t = p_est.mean(axis=0), p_true.mean(axis=0)
+    C = (p_true - mu_t).T @ (p_est - mu_e)
+    U, _, Vt = np.linalg.svd(C)
+    S = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    R = U @ S @ Vt
+    return R, mu_t - R @ mu_e
+
+
+def ate(p_est, R_est, p_true, R_true, aligned):
+    """RMSE of position [m] and orientation [rad]; aligned: after the best SE(3) alignment of the
+    estimate onto the truth, otherwise in the board frame as estimated."""
+    if aligned:
+        R, t = align_se3(p_est, p_true)
+        p_est = p_est @ R.T + t
+        R_est = np.array([R @ Re for Re in R_est])
+    dp = p_true - p_est
+    dth = np.array([np.linalg.norm(rotation_error(Rt, Re)) for Rt, Re in zip(R_true, R_est)])
+    return (float(np.sqrt(np.mean(np.sum(dp * dp, axis=1)))),
+            float(np.sqrt(np.mean(dth * dth))))
+
+
+def rpe(t_ns, p_est, R_est, p_true, R_true, delta_s=1.0):
+    """Relative pose error over `delta_s`: RMSE of the translation [m] and rotation [rad] of
+    (T_true_i^-1 T_true_j)^-1 (T_est_i^-1 T_est_j) for every i and the first j at least delta_s
+    later. Independent of any alignment."""
+    trans, rots = [], []
+    for i in range(len(t_ns)):
+        j = int(np.searchsorted(t_ns, t_ns[i] + int(delta_s * 1e9)))
+        if j >= len(t_ns):
+            break
+        dR_t = R_true[i].T @ R_true[j]
+        dp_t = R_true[i].T @ (p_true[j] - p_true[i])
+        dR_e = R_est[i].T @ R_est[j]
+        dp_e = R_est[i].T @ (p_est[j] - p_est[i])
+        E_R = dR_t.T @ dR_e
+        E_p = dR_t.T @ (dp_e - dp_t)
+        trans.append(np.linalg.norm(E_p))
+        rots.append(np.linalg.norm(log_so3(E_R)))
+    if not trans:
+        return float("nan"), float("nan")
+    return (float(np.sqrt(np.mean(np.square(trans)))), float(np.sqrt(np.mean(np.square(rots)))))
+
+
+def pose_nees(p_est, R_est, cov, p_true, R_true):
+    """Per pose: orientation NEES (3 dof) and position NEES (3 dof) from the 6x6 tangent
+    covariance [dtheta; dp] with R_true = R_est Exp(dtheta), p_true = p_est + dp."""
+    nees_R, nees_p = [], []
+    for pe, Re, C, pt, Rt in zip(p_est, R_est, cov, p_true, R_true):
+        dth = rotation_error(Rt, Re)
+        dp = pt - pe
+        nees_R.append(float(dth @ np.linalg.solve(C[0:3, 0:3], dth)))
+        nees_p.append(float(dp @ np.linalg.solve(C[3:6, 3:6], dp)))
+    return np.array(nees_R), np.array(nees_p)
+
+
+def trajectory_metrics(result_dir, truth_dir):
+    truth = read_tum(os.path.join(truth_dir, "trajectory.tum"))
+    t, p, R = read_tum(os.path.join(result_dir, "trajectory.tum"))
+    mask, p_t, R_t = interpolate_truth(truth, t)
+    t, p, R = t[mask], p[mask], R[mask]
+    out = {"states": int(len(t))}
+    out["ate_position_m"], out["ate_orientation_rad"] = ate(p, R, p_t, R_t, aligned=False)
+    out["ate_aligned_position_m"], out["ate_aligned_orientation_rad"] = ate(p, R, p_t, R_t,
+                                                                            aligned=True)
+    out["rpe_1s_translation_m"], out["rpe_1s_rotation_rad"] = rpe(t, p, R, p_t, R_t, 1.0)
+    # The first seconds carry the initial calibration's error; the second half shows the
+    # converged estimator.
+    half = len(t) // 2
+    out["ate_second_half_position_m"], out["ate_second_half_orientation_rad"] = ate(
+        p[half:], R[half:], p_t[half:], R_t[half:], aligned=False)
+    tc, pc, Rc, C = read_pose_covariance_csv(os.path.join(result_dir, "pose_covariance.csv"))
+    mask, pc_t, Rc_t = interpolate_truth(truth, tc)
+    if np.any(mask):
+        nees_R, nees_p = pose_nees(pc[mask], Rc[mask], C[mask], pc_t, Rc_t)
+        out["nees_orientation"] = float(np.mean(nees_R))
+        out["nees_position"] = float(np.mean(nees_p))
+        out["nees_samples"] = int(np.sum(mask))
+    return out
+
+
+# ---------------------------------------------------------------- report
+
+
+def markdown_report(table, metrics):
+    lines = ["| sensor | quantity | final error | 3 sigma | inside 3 sigma |",
+             "| --- | --- | ---: | ---: | --- |"]
+    for r in table:
+        inside = "held" if r["inside"] is None else "%d of %d axes" % (r["inside"], r["axes"])
+        lines.append("| %s | %s [%s] | %.4f | %.4f | %s |" % (r["sensor"], r["quantity"], r["unit"],
+                                                              r["error"], r["three_sigma"], inside))
+    lines.append("")
+    lines.append("| trajectory (%d states) | value |" % metrics["states"])
+    lines.append("| --- | ---: |")
+    lines.append("| ATE position, board frame [mm] | %.2f |" % (metrics["ate_position_m"] * 1e3))
+    lines.append("| ATE orientation, board frame [deg] | %.3f |"
+                 % math.degrees(metrics["ate_orientation_rad"]))
+    lines.append("| ATE position, board frame, second half [mm] | %.2f |"
+                 % (metrics["ate_second_half_position_m"] * 1e3))
+    lines.append("| ATE orientation, board frame, second half [deg] | %.3f |"
+                 % math.degrees(metrics["ate_second_half_orientation_rad"]))
+    lines.append("| ATE position, SE(3)-aligned [mm] | %.2f |"
+                 % (metrics["ate_aligned_position_m"] * 1e3))
+    lines.append("| ATE orientation, SE(3)-aligned [deg] | %.3f |"
+                 % math.degrees(metrics["ate_aligned_orientation_rad"]))
+    lines.append("| RPE over 1 s, translation [mm] | %.2f |" % (metrics["rpe_1s_translation_m"] * 1e3))
+    lines.append("| RPE over 1 s, rotation [deg] | %.3f |"
+                 % math.degrees(metrics["rpe_1s_rotation_rad"]))
+    if "nees_orientation" in metrics:
+        lines.append("| mean NEES orientation (3 dof, consistent: ~3) over %d poses | %.2f |"
+                     % (metrics["nees_samples"], metrics["nees_orientation"]))
+        lines.append("| mean NEES position (3 dof, consistent: ~3) | %.2f |"
+                     % metrics["nees_position"])
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------- plots
+
+QUANTITIES = (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
+              ("translation", slice(3, 6), 1e3, "mm"),
+              ("time offset", slice(6, 7), 1e3, "ms"))
+AXES = "xyz"
+
+
+def plot_errors(runs, path, title):
+    """One figure for one sensor: per axis, the error and its +-3 sigma over time for every run
+    in `runs` (a list of calibration_errors() entries of that sensor), like the report's Fig. 2.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kind = runs[0]["kind"]
+    quantities = [q for q in QUANTITIES if not (kind == "gyroscope" and q[0] == "translation")]
+    fig, axes = plt.subplots(len(quantities), 3, figsize=(12, 2.6 * len(quantities)),
+                             squeeze=False, sharex=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for row, (name, cols, scale, unit) in enumerate(quantities):
+        n_axes = cols.stop - cols.start
+        for a in range(3):
+            ax = axes[row][a]
+            if a >= n_axes:
+                ax.set_visible(False)
+                continue
+            for k, run in enumerate(runs):
+                c = colors[k % len(colors)]
+                e = run["error"][:, cols.start + a] * scale
+                s = 3.0 * run["std"][:, cols.start + a] * scale
+                ax.plot(run["t"], e, color=c, lw=1.0)
+                ax.plot(run["t"], s, color=c, lw=0.8, ls="--")
+                ax.plot(run["t"], -s, color=c, lw=0.8, ls="--")
+            label = name if n_axes == 1 else "%s %s" % (name, AXES[a])
+            ax.set_ylabel("%s [%s]" % (label, unit))
+            ax.grid(True, alpha=0.3)
+            # The first seconds (initial guess, before the first covariance) dwarf the rest.
+            finals = [np.nanmax(np.abs(3.0 * r["std"][len(r["t"]) // 5:, cols.start + a]))
+                      for r in runs]
+            finals += [np.nanmax(np.abs(r["error"][len(r["t"]) // 5:, cols.start + a]))
+                       for r in runs]
+            lim = 1.3 * np.nanmax(finals) * scale if np.isfinite(np.nanmax(finals)) else None
+            if lim and lim > 0:
+                ax.set_ylim(-lim, lim)
+    # Time labels under the lowest visible panel of each column.
+    for a in range(3):
+        visible = [axes[r][a] for r in range(len(quantities)) if axes[r][a].get_visible()]
+        visible[-1].set_xlabel("time [s]")
+        visible[-1].tick_params(labelbottom=True)
+    fig.suptitle(title + " (solid: error, dashed: +-3 sigma)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def evaluate(result_dir, truth_dir, out_dir):
+    """Plots (one PNG per sensor), summary.md; returns (table rows, trajectory metrics)."""
+    os.makedirs(out_dir, exist_ok=True)
+    history = read_calibration_csv(os.path.join(result_dir, "calibration.csv"))
+    errors = calibration_errors(history, read_truth_calibration(truth_dir))
+    for name, e in errors.items():
+        plot_errors([e], os.path.join(out_dir, name + ".png"), "%s (%s)" % (name, e["kind"]))
+    table = final_calibration_table(errors)
+    metrics = trajectory_metrics(result_dir, truth_dir)
+    with open(os.path.join(out_dir, "summary.md"), "w") as f:
+        f.write(markdown_report(table, metrics))
+    return table, metrics, errors

@@ -1,0 +1,134 @@
+#include "mvis/rig/estimate_log.h"
+
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace mvis {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Past `max_rows`, the rows of every other stamp (the first one kept): a solve's rows stay
+// together.
+template <typename Row>
+void thin(std::vector<Row>* rows, std::size_t max_rows) {
+  if (rows->size() <= max_rows) return;
+  std::size_t kept = 0, group = 0;
+  for (std::size_t i = 0; i < rows->size(); ++i) {
+    if (i > 0 && (*rows)[i].stamp_ns != (*rows)[i - 1].stamp_ns) ++group;
+    if (group % 2 == 0) (*rows)[kept++] = (*rows)[i];
+  }
+  rows->resize(kept);
+}
+
+void writeStamp(std::FILE* file, TimeNs stamp) {
+  const bool negative = stamp < 0;
+  const std::int64_t a = negative ? -stamp : stamp;
+  std::fprintf(file, "%s%" PRId64 ".%09" PRId64, negative ? "-" : "", a / kNsPerSecond,
+               a % kNsPerSecond);
+}
+
+void writeNumber(std::FILE* file, double v) {
+  if (std::isnan(v)) {
+    std::fputs(",nan", file);
+  } else {
+    std::fprintf(file, ",%.10g", v);
+  }
+}
+
+}  // namespace
+
+int EstimateLog::sensorIndex(const std::string& name, const char* kind) {
+  for (std::size_t i = 0; i < names_.size(); ++i) {
+    if (names_[i] == name) return static_cast<int>(i);
+  }
+  names_.push_back(name);
+  kinds_.push_back(kind);
+  return static_cast<int>(names_.size()) - 1;
+}
+
+void EstimateLog::addCalibration(TimeNs stamp_ns, const Rig& rig) {
+  for (const Camera& c : rig.cameras) {
+    CalibrationRow row{stamp_ns, sensorIndex(c.name, "camera"), {}, {}};
+    row.value << lie::logQuat(c.T_cam_imu.q), c.T_cam_imu.p, c.timeshift_cam_imu;
+    if (c.std) {
+      row.std << c.std->rotation, c.std->translation, c.std->timeshift_cam_imu;
+    } else {
+      row.std.setConstant(kNaN);
+    }
+    calibration_.push_back(row);
+  }
+  for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+    const InertialSensor& s = rig.inertial[i];
+    const bool gyro = s.type == InertialType::kGyroscope;
+    CalibrationRow row{stamp_ns, sensorIndex(s.name, gyro ? "gyroscope" : "imu"), {}, {}};
+    row.value << lie::logQuat(s.T_i_b.q), s.T_i_b.p, s.time_offset;
+    if (s.std) {
+      row.std << s.std->rotation, s.std->translation, s.std->time_offset;
+    } else {
+      row.std.setConstant(kNaN);
+    }
+    if (gyro) {  // a gyroscope has no position
+      row.value.segment<3>(3).setConstant(kNaN);
+      row.std.segment<3>(3).setConstant(kNaN);
+    }
+    calibration_.push_back(row);
+  }
+  thin(&calibration_, max_rows_);
+}
+
+void EstimateLog::addPose(TimeNs stamp_ns, const SE3& T_G_I,
+                          const Eigen::Matrix<double, 6, 6>& covariance) {
+  if (!covariance.allFinite()) return;
+  poses_.push_back({stamp_ns, T_G_I, covariance});
+  thin(&poses_, max_rows_);
+}
+
+void EstimateLog::clear() {
+  calibration_.clear();
+  poses_.clear();
+}
+
+Status EstimateLog::write(const std::string& dir) const {
+  const std::string calibration_path = dir + "/calibration.csv";
+  std::FILE* file = std::fopen(calibration_path.c_str(), "w");
+  if (!file) return Status::Error(calibration_path + ": cannot write");
+  std::fputs(
+      "stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,std_rx,std_ry,std_rz,std_px,std_py,"
+      "std_pz,std_time_offset\n",
+      file);
+  for (const CalibrationRow& row : calibration_) {
+    writeStamp(file, row.stamp_ns);
+    std::fprintf(file, ",%s,%s", names_[row.sensor].c_str(), kinds_[row.sensor].c_str());
+    for (int i = 0; i < 7; ++i) writeNumber(file, row.value[i]);
+    for (int i = 0; i < 7; ++i) writeNumber(file, row.std[i]);
+    std::fputc('\n', file);
+  }
+  if (std::fclose(file) != 0) return Status::Error(calibration_path + ": cannot write");
+
+  const std::string pose_path = dir + "/pose_covariance.csv";
+  file = std::fopen(pose_path.c_str(), "w");
+  if (!file) return Status::Error(pose_path + ": cannot write");
+  std::fputs("stamp,tx,ty,tz,qx,qy,qz,qw", file);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) std::fprintf(file, ",c%d%d", r, c);
+  }
+  std::fputc('\n', file);
+  for (const PoseRow& row : poses_) {
+    writeStamp(file, row.stamp_ns);
+    const SE3& T = row.T_G_I;
+    for (double v : {T.p.x(), T.p.y(), T.p.z(), T.q.x(), T.q.y(), T.q.z(), T.q.w()}) {
+      writeNumber(file, v);
+    }
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) writeNumber(file, row.covariance(r, c));
+    }
+    std::fputc('\n', file);
+  }
+  if (std::fclose(file) != 0) return Status::Error(pose_path + ": cannot write");
+  return Status::Ok();
+}
+
+}  // namespace mvis
