@@ -9,6 +9,7 @@
 #include "mvis/estimator/observability.h"
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/marginalization_factor.h"
+#include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
 namespace {
@@ -93,6 +94,34 @@ class LinearCost final : public ceres::CostFunction {
 // A projected residual's information along an uninformative direction u of a kept block is
 // marginalized out before the dropped block is: the prior equals that dense computation, and
 // u is in its null space when nothing else informs it; an unprojected residual is unchanged.
+// The prior on held directions (used while computing covariances): its value is the scaled
+// tangent difference along them, its Jacobians at the mean match central differences through
+// the pose manifold, and its information there is D diag(1/s^2) D^T in the tangent.
+TEST(TangentPriorFactor, ValueAndJacobiansThroughTheManifold) {
+  const PoseManifold pose;
+  std::vector<double> x0(7), x(7);
+  se3ToPose(SE3(lie::expQuat(Eigen::Vector3d(0.3, -0.1, 0.2)), Eigen::Vector3d(0.1, 0.2, 0.3)),
+            x0.data());
+  Eigen::Matrix<double, 6, 1> delta;
+  delta << 0.01, -0.02, 0.005, 0.003, -0.001, 0.002;
+  pose.Plus(x0.data(), delta.data(), x.data());
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6, 2);
+  D(5, 0) = 1.0;                       // translation z
+  D(0, 1) = D(1, 1) = std::sqrt(0.5);  // rotation about (1, 1, 0)
+  const Eigen::Vector2d s(0.1, 0.05);
+  TangentPriorFactor f(&pose, x0, D, s);
+  const Eigen::VectorXd r = test::evaluateResiduals(f, {x});
+  EXPECT_NEAR(r[0], delta[5] / 0.1, 1e-12);
+  EXPECT_NEAR(r[1], (delta[0] + delta[1]) * std::sqrt(0.5) / 0.05, 1e-12);
+  // First-estimate Jacobians: exact at the prior's mean, where the estimator evaluates them.
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(f, {x0}, {&pose}),
+                                   test::numericTangentJacobians(f, {x0}, {&pose}, 1e-6)),
+            1e-6);
+  const Eigen::MatrixXd J = test::analyticTangentJacobians(f, {x0}, {&pose})[0];
+  const Eigen::MatrixXd info = D * s.cwiseInverse().cwiseAbs2().asDiagonal() * D.transpose();
+  EXPECT_LT((J.transpose() * J - info).norm(), 1e-9 * info.norm());
+}
+
 TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
   std::mt19937 rng(11);
   std::normal_distribution<double> n(0.0, 1.0);

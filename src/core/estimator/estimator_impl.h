@@ -26,6 +26,7 @@
 #include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/pose_prior_factor.h"
 #include "mvis/factors/tag_reprojection_factor.h"
+#include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
 namespace estimator_internal {
@@ -195,7 +196,7 @@ struct Estimator::Impl {
   // What the base IMU's motion between consecutive states tells the calibration (per unit
   // noise density, estimator_observability.cpp), over the last observability_horizon_s.
   struct MotionInformation {
-    TimeNs t = 0;  // the later state's time
+    TimeNs t = 0;                                           // the later state's time
     Eigen::Matrix3d translation = Eigen::Matrix3d::Zero();  // int (hat(a) + hat(w)^2)^T (...) dt
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
     double time_offset = 0.0;                               // int |alpha|^2 dt
@@ -389,6 +390,9 @@ struct Estimator::Impl {
 
   // Calibration standard deviations, and the newest pose's covariance.
   Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov);
+  // The newest pose's covariance with the held calibration directions free at the uncertainty
+  // they kept (replaces *pose_cov).
+  Status poseCovarianceWithHeld(Eigen::Matrix<double, 6, 6>* pose_cov);
 
   void trimBuffers();
 

@@ -319,7 +319,13 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
     }
   }
   if (!cov.Compute(blocks, problem.get())) return Status::Error("covariance computation failed");
-  if (pose_cov != nullptr) cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+  if (pose_cov != nullptr) {
+    cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+    if (!holds.empty()) {
+      const Status s = poseCovarianceWithHeld(pose_cov);
+      if (!s.ok()) return s;
+    }
+  }
   // Blocks held whole (constant) keep the standard deviations they had.
   std::vector<CameraCalibrationStd> out =
       camera_std ? *camera_std : std::vector<CameraCalibrationStd>(cameras.size());
@@ -361,6 +367,47 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
     a->std = sd;
   }
   return Status::Ok();
+}
+
+Status Estimator::Impl::poseCovarianceWithHeld(Eigen::Matrix<double, 6, 6>* pose_cov) {
+  // The pose depends on what is held (a camera's translation along the only rotation axis
+  // moves imu0's position in the board frame along it): with the held directions constant its
+  // covariance would be as if they were known. Released for this computation, with a prior of
+  // the uncertainty they kept, they carry it into the pose. The window may still know a little
+  // along them (the marginalization prior keeps what earlier motion told, which is part of the
+  // kept variance too), so the pose's variance along them is at worst about half what it is.
+  std::vector<ceres::ResidualBlockId> added;
+  for (auto& [const_block, hold] : holds) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.base);
+    } else {
+      problem->SetParameterBlockVariable(block);
+    }
+    const int ambient = problem->ParameterBlockSize(block);
+    added.push_back(problem->AddResidualBlock(
+        new TangentPriorFactor(hold.base, std::vector<double>(block, block + ambient),
+                               hold.directions, hold.variance.cwiseMax(1e-30).cwiseSqrt()),
+        nullptr, block));
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = options.threads;
+  ceres::Covariance cov(co);
+  double* newest = states.back()->pose;
+  const std::vector<std::pair<const double*, const double*>> pose_block = {{newest, newest}};
+  const bool ok = cov.Compute(pose_block, problem.get());
+  if (ok) cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+  for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
+  for (auto& [const_block, hold] : holds) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.subspace.get());
+    } else {
+      problem->SetParameterBlockConstant(block);
+    }
+  }
+  return ok ? Status::Ok() : Status::Error("pose covariance with the held directions failed");
 }
 
 }  // namespace mvis
