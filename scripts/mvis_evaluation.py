@@ -99,22 +99,27 @@ def read_tum(path):
             np.array(rotations).reshape(-1, 3, 3))
 
 
+CALIBRATION_KEYS = ["rx", "ry", "rz", "px", "py", "pz", "time_offset",
+                    "fu", "fv", "pu", "pv", "k1", "k2", "k3", "k4"]
+
+
 def read_calibration_csv(path):
-    """{sensor: {"kind", "t" [ns], "value" (n x 7), "std" (n x 7)}} in file order; columns
-    [rx ry rz px py pz time_offset]."""
+    """{sensor: {"kind", "t" [ns], "value" (n x 15), "std" (n x 15)}} in file order; columns
+    [rx ry rz px py pz time_offset fu fv pu pv k1 k2 k3 k4] (nan where a file has no such
+    column or the sensor no such quantity)."""
     out = {}
     with open(path) as f:
         for row in csv.DictReader(f):
             entry = out.setdefault(row["sensor"], {"kind": row["kind"], "t": [], "value": [],
                                                    "std": []})
             entry["t"].append(parse_stamp(row["stamp"]))
-            keys = ["rx", "ry", "rz", "px", "py", "pz", "time_offset"]
-            entry["value"].append([float(row[k]) for k in keys])
-            entry["std"].append([float(row["std_" + k]) for k in keys])
+            entry["value"].append([float(row.get(k) or "nan") for k in CALIBRATION_KEYS])
+            entry["std"].append([float(row.get("std_" + k) or "nan") for k in CALIBRATION_KEYS])
+    n = len(CALIBRATION_KEYS)
     for entry in out.values():
         entry["t"] = np.array(entry["t"], dtype=np.int64)
-        entry["value"] = np.array(entry["value"]).reshape(-1, 7)
-        entry["std"] = np.array(entry["std"]).reshape(-1, 7)
+        entry["value"] = np.array(entry["value"]).reshape(-1, n)
+        entry["std"] = np.array(entry["std"]).reshape(-1, n)
     return out
 
 
@@ -143,38 +148,51 @@ def matrix4(rows):
 
 
 def read_truth_calibration(truth_dir):
-    """{sensor: (R, p, time_offset)}: T_cam_imu of cameras, T_i_b of IMUs and gyroscopes."""
+    """{sensor: (R, p, time_offset, intrinsics)}: T_cam_imu of cameras with [fu fv pu pv] and
+    distortion_coeffs (8 values), T_i_b of IMUs and gyroscopes (intrinsics all nan)."""
     out = {}
     with open(os.path.join(truth_dir, "kalibr_imucam_chain.yaml")) as f:
         for name, cam in (yaml.safe_load(f) or {}).items():
             R, p = matrix4(cam["T_cam_imu"])
-            out[name] = (R, p, float(cam.get("timeshift_cam_imu", 0.0)))
+            intrinsics = np.array(list(cam.get("intrinsics", [math.nan] * 4)) +
+                                  list(cam.get("distortion_coeffs", [math.nan] * 4)), dtype=float)
+            out[name] = (R, p, float(cam.get("timeshift_cam_imu", 0.0)), intrinsics)
     path = os.path.join(truth_dir, "kalibr_imu_chain.yaml")
     if os.path.exists(path):
         with open(path) as f:
             for name, imu in (yaml.safe_load(f) or {}).items():
                 R, p = matrix4(imu["T_i_b"])
-                out[name] = (R, p, float(imu.get("time_offset", 0.0)))
+                out[name] = (R, p, float(imu.get("time_offset", 0.0)), np.full(8, math.nan))
     return out
 
 
 # ---------------------------------------------------------------- calibration errors
 
+QUANTITIES = (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
+              ("translation", slice(3, 6), 1e3, "mm"),
+              ("time offset", slice(6, 7), 1e3, "ms"))
+INTRINSICS = (("focal lengths", slice(7, 9), 1.0, "px"),
+              ("centre", slice(9, 11), 1.0, "px"),
+              ("distortion", slice(11, 15), 1.0, "-"))
+AXES = "xyz"
+
 
 def calibration_errors(history, truth):
-    """Per sensor: {"kind", "t" [s from the first row], "error" (n x 7: rotation [rad],
-    translation [m], time offset [s]), "std" (n x 7)} for the sensors that have a truth."""
+    """Per sensor: {"kind", "t" [s from the first row], "error" (n x 15: rotation [rad],
+    translation [m], time offset [s], intrinsics [px] and distortion), "std" (n x 15)} for the
+    sensors that have a truth."""
     out = {}
     t0 = min(h["t"][0] for h in history.values())
     for name, h in history.items():
         if name not in truth:
             continue
-        R_t, p_t, td_t = truth[name]
+        R_t, p_t, td_t, intrinsics_t = truth[name]
         err = np.zeros_like(h["value"])
         for i, v in enumerate(h["value"]):
             err[i, 0:3] = rotation_error(R_t, exp_so3(v[0:3]))
             err[i, 3:6] = p_t - v[3:6]
             err[i, 6] = td_t - v[6]
+            err[i, 7:15] = intrinsics_t - v[7:15]
         out[name] = {"kind": h["kind"], "t": (h["t"] - t0) * 1e-9, "error": err, "std": h["std"]}
     return out
 
@@ -186,17 +204,20 @@ def final_calibration_table(errors):
     rows = []
     for name, e in errors.items():
         err, std = e["error"][-1], e["std"][-1]
-        for quantity, cols, scale, unit in (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
-                                            ("translation", slice(3, 6), 1e3, "mm"),
-                                            ("time offset", slice(6, 7), 1e3, "ms")):
+        for quantity, cols, scale, unit in QUANTITIES + INTRINSICS:
             x, s = err[cols], std[cols]
             if np.all(np.isnan(x)):
-                continue  # a gyroscope's translation
+                continue  # a gyroscope's translation, an IMU's intrinsics
+            if cols.start >= 7 and not np.any(s > 0.0):
+                continue  # intrinsics not estimated
             held = np.all(s == 0.0)
             inside = int(np.sum(np.abs(x) <= 3.0 * s)) if not held else None
+            # Extrinsics: the norm over the axes; intrinsics: the largest element.
+            size = (np.max(np.abs(x)), np.max(3.0 * s)) if cols.start >= 7 else (
+                np.linalg.norm(x), np.linalg.norm(3.0 * s))
             rows.append({"sensor": name, "quantity": quantity, "unit": unit,
-                         "error": float(np.linalg.norm(x) * scale),
-                         "three_sigma": float(np.linalg.norm(3.0 * s) * scale),
+                         "error": float(size[0] * scale),
+                         "three_sigma": float(size[1] * scale),
                          "inside": inside, "axes": int(x.size),
                          # error / sigma per axis: standard normal when the sigma is honest
                          "normalized": [] if held else [float(v) for v in x / s]})
@@ -344,10 +365,6 @@ def markdown_report(table, metrics):
 
 # ---------------------------------------------------------------- plots
 
-QUANTITIES = (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
-              ("translation", slice(3, 6), 1e3, "mm"),
-              ("time offset", slice(6, 7), 1e3, "ms"))
-AXES = "xyz"
 
 
 def plot_errors(runs, path, title):
@@ -399,6 +416,46 @@ def plot_errors(runs, path, title):
     plt.close(fig)
 
 
+INTRINSIC_NAMES = ("fu", "fv", "pu", "pv", "k1", "k2", "k3", "k4")
+
+
+def intrinsics_estimated(run):
+    return bool(np.any(run["std"][:, 7:15] > 0.0))
+
+
+def plot_intrinsics(runs, path, title):
+    """A camera's intrinsics [px] and distortion coefficients: error and +-3 sigma over time for
+    every run, one panel per parameter."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 4, figsize=(14, 5.2), sharex=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, label in enumerate(INTRINSIC_NAMES):
+        ax = axes[k // 4][k % 4]
+        col = 7 + k
+        for i, run in enumerate(runs):
+            c = colors[i % len(colors)]
+            ax.plot(run["t"], run["error"][:, col], color=c, lw=1.0)
+            ax.plot(run["t"], 3.0 * run["std"][:, col], color=c, lw=0.8, ls="--")
+            ax.plot(run["t"], -3.0 * run["std"][:, col], color=c, lw=0.8, ls="--")
+        ax.set_ylabel("%s%s" % (label, " [px]" if k < 4 else ""))
+        ax.grid(True, alpha=0.3)
+        tail = [np.nanmax(np.abs(np.concatenate([r["error"][len(r["t"]) // 5:, col],
+                                                 3.0 * r["std"][len(r["t"]) // 5:, col]])))
+                for r in runs]
+        lim = 1.3 * np.nanmax(tail)
+        if np.isfinite(lim) and lim > 0:
+            ax.set_ylim(-lim, lim)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    fig.suptitle(title + " (solid: error, dashed: +-3 sigma)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
 def evaluate(result_dir, truth_dir, out_dir):
     """Plots (one PNG per sensor), summary.md; returns (table rows, trajectory metrics)."""
     os.makedirs(out_dir, exist_ok=True)
@@ -406,6 +463,9 @@ def evaluate(result_dir, truth_dir, out_dir):
     errors = calibration_errors(history, read_truth_calibration(truth_dir))
     for name, e in errors.items():
         plot_errors([e], os.path.join(out_dir, name + ".png"), "%s (%s)" % (name, e["kind"]))
+        if intrinsics_estimated(e):
+            plot_intrinsics([e], os.path.join(out_dir, name + "_intrinsics.png"),
+                            "%s intrinsics" % name)
     table = final_calibration_table(errors)
     metrics = trajectory_metrics(result_dir, truth_dir)
     with open(os.path.join(out_dir, "summary.md"), "w") as f:

@@ -109,6 +109,7 @@ void MvisNodelet::onInit() {
     eo.estimate_time_offsets = options_.estimate_time_offsets;
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
     eo.estimate_aux_time_offsets = options_.estimate_aux_time_offsets;
+    eo.estimate_intrinsics = options_.estimate_intrinsics;
     eo.aux_imu_model = options_.aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity
                                                                   : AuxImuModel::kVelocityState;
     eo.max_iterations = options_.max_iterations;
@@ -311,8 +312,8 @@ void MvisNodelet::publishDiagnostics() {
     const EstimatorCounters& c = estimator_->counters();
     add("solves", std::to_string(c.solves));
     add("resets", std::to_string(c.resets));
-    add("frames_dropped",
-        std::to_string(c.frames_too_old + c.frames_out_of_order + c.frames_in_imu_gap));
+    add("frames_dropped", std::to_string(c.frames_too_old + c.frames_too_close +
+                                         c.frames_out_of_order + c.frames_in_imu_gap));
     add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
     add("imu_gaps", std::to_string(c.imu_gaps));
     add("clock_corrections", std::to_string(c.clock_corrections));

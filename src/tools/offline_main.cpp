@@ -1,6 +1,7 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
+//              [--estimate-intrinsics]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -27,7 +28,7 @@ int usage(const char* message) {
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--window N]\n"
                "                    [--max-iterations N] [--solve-every N]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
-               "                    [--observability-ratio R]\n"
+               "                    [--observability-ratio R] [--estimate-intrinsics]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -42,7 +43,8 @@ int usage(const char* message) {
                "  --aux-model M    auxiliary IMU velocity as a state (velocity_state, default)\n"
                "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
-               "                   0: off; see config/mvis.yaml)\n",
+               "                   0: off; see config/mvis.yaml)\n"
+               "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n",
                message);
   return 2;
 }
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
   std::string config_dir, bag_path, output_dir, truth_dir, interpolation = "imu";
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
+  bool estimate_intrinsics = false;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
@@ -107,6 +110,8 @@ int main(int argc, char** argv) {
         return usage("--observability-ratio takes a number >= 0");
       }
       observability_ratio = std::atof(v.c_str());
+    } else if (arg == "--estimate-intrinsics") {
+      estimate_intrinsics = true;
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -146,6 +151,7 @@ int main(int argc, char** argv) {
                                         ? mvis::AuxImuModel::kRigidVelocity
                                         : mvis::AuxImuModel::kVelocityState;
   options.estimator.observability_ratio = observability_ratio;
+  options.estimator.estimate_intrinsics = estimate_intrinsics;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

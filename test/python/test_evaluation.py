@@ -200,6 +200,36 @@ class Calibration(unittest.TestCase):
         self.assertNotIn(("imu1", "translation"), table)
         self.assertIsNone(table[("imu1", "rotation")]["inside"])
 
+    def test_intrinsics_errors_when_estimated(self):
+        with tempfile.TemporaryDirectory() as d:
+            R = write_truth(d)
+            with open(os.path.join(d, "kalibr_imucam_chain.yaml"), "a") as f:
+                f.write("  intrinsics: [400.0, 401.0, 320.0, 240.0]\n"
+                        "  distortion_coeffs: [0.01, -0.02, 0.001, 0.0]\n")
+            phi = ev.log_so3(R)
+            header = CSV_HEADER.strip() + ",fu,fv,pu,pv,k1,k2,k3,k4," + ",".join(
+                "std_" + k for k in ev.INTRINSIC_NAMES) + "\n"
+            with open(os.path.join(d, "calibration.csv"), "w") as f:
+                f.write(header)
+                # fu off by 0.3 px (sigma 0.2), pv by -1.0 px (sigma 0.2: outside 3 sigma),
+                # k2 by 0.0005 (sigma 0.001).
+                f.write("1.0,cam0,camera,%r,%r,%r,0.1,0.0,-0.05,0.002,1e-3,1e-3,1e-3,1e-3,1e-3,"
+                        "1e-3,1e-4,399.7,401.0,320.0,241.0,0.01,-0.0205,0.001,0.0,"
+                        "0.2,0.2,0.2,0.2,0.001,0.001,0.001,0.001\n" % tuple(phi))
+            history = ev.read_calibration_csv(os.path.join(d, "calibration.csv"))
+            errors = ev.calibration_errors(history, ev.read_truth_calibration(d))
+            self.assertTrue(ev.intrinsics_estimated(errors["cam0"]))
+            ev.plot_intrinsics([errors["cam0"]], os.path.join(d, "i.png"), "cam0")
+            self.assertTrue(os.path.getsize(os.path.join(d, "i.png")) > 1000)
+        table = {r["quantity"]: r for r in ev.final_calibration_table(errors)}
+        self.assertAlmostEqual(table["focal lengths"]["error"], 0.3, places=9)
+        self.assertAlmostEqual(table["focal lengths"]["three_sigma"], 0.6, places=9)
+        self.assertEqual(table["focal lengths"]["inside"], 2)
+        self.assertAlmostEqual(table["centre"]["error"], 1.0, places=9)
+        self.assertEqual(table["centre"]["inside"], 1)
+        self.assertAlmostEqual(table["distortion"]["error"], 0.0005, places=12)
+        self.assertEqual((table["distortion"]["inside"], table["distortion"]["axes"]), (4, 4))
+
     def test_plot_is_written(self):
         t = np.linspace(0, 5, 20)
         run = {"kind": "camera", "t": t, "error": np.outer(np.exp(-t), np.ones(7)) * 1e-3,

@@ -41,6 +41,8 @@ Rig smallRig() {
   rig.cameras[0].T_cam_imu =
       SE3(lie::expQuat(Eigen::Vector3d(1.0, 0, 0)), Eigen::Vector3d(0.1, 0, 0));
   rig.cameras[0].timeshift_cam_imu = -0.002;
+  rig.cameras[0].intrinsics = Eigen::Vector4d(400.0, 401.0, 320.5, 240.25);
+  rig.cameras[0].distortion_coeffs = Eigen::Vector4d(0.01, -0.02, 0.001, -0.0005);
   return rig;
 }
 
@@ -52,6 +54,8 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
   cam_std.rotation = Eigen::Vector3d(1e-3, 2e-3, 3e-3);
   cam_std.translation = Eigen::Vector3d(4e-4, 5e-4, 6e-4);
   cam_std.timeshift_cam_imu = 7e-5;
+  cam_std.intrinsics = Eigen::Vector4d(0.5, 0.6, 0.7, 0.8);
+  cam_std.distortion_coeffs = Eigen::Vector4d(1e-4, 2e-4, 3e-4, 4e-4);
   rig.cameras[0].std = cam_std;
   InertialCalibrationStd imu_std;
   imu_std.rotation = Eigen::Vector3d::Constant(1e-3);
@@ -71,9 +75,12 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
 
   const auto cal = readCsv(dir + "/calibration.csv");
   ASSERT_EQ(cal.size(), 1u + 2 * 3);  // header, two solves of three sensors
-  ASSERT_EQ(cal[0].size(), 17u);
+  ASSERT_EQ(cal[0].size(), 33u);
   EXPECT_EQ(cal[0][0], "stamp");
   EXPECT_EQ(cal[0][16], "std_time_offset");
+  EXPECT_EQ(cal[0][17], "fu");
+  EXPECT_EQ(cal[0][32], "std_k4");
+  for (const auto& row : cal) ASSERT_EQ(row.size(), 33u);
   // First solve: cam0 without standard deviations.
   EXPECT_EQ(cal[1][0], "1700000000.123456789");
   EXPECT_EQ(cal[1][1], "cam0");
@@ -82,7 +89,15 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
   EXPECT_NEAR(std::stod(cal[1][6]), 0.1, 1e-12);
   EXPECT_NEAR(std::stod(cal[1][9]), -0.002, 1e-15);
   EXPECT_EQ(cal[1][10], "nan");
-  // Second solve: imu1 with its values and standard deviations; the gyroscope has no position.
+  // Second solve: cam0's intrinsics and their standard deviations.
+  EXPECT_NEAR(std::stod(cal[4][17]), 400.0, 1e-9);
+  EXPECT_NEAR(std::stod(cal[4][20]), 240.25, 1e-9);
+  EXPECT_NEAR(std::stod(cal[4][24]), -0.0005, 1e-15);
+  EXPECT_NEAR(std::stod(cal[4][25]), 0.5, 1e-12);
+  EXPECT_NEAR(std::stod(cal[4][32]), 4e-4, 1e-15);
+  EXPECT_EQ(cal[1][25], "nan");
+  // Second solve: imu1 with its values and standard deviations (no intrinsics); the gyroscope
+  // has no position.
   const auto& imu1 = cal[5];
   EXPECT_EQ(imu1[1], "imu1");
   EXPECT_EQ(imu1[2], "imu");
@@ -92,6 +107,8 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
   EXPECT_NEAR(std::stod(imu1[9]), 0.004, 1e-15);
   EXPECT_NEAR(std::stod(imu1[13]), 2e-3, 1e-15);
   EXPECT_NEAR(std::stod(imu1[16]), 3e-4, 1e-15);
+  EXPECT_EQ(imu1[17], "nan");
+  EXPECT_EQ(imu1[32], "nan");
   const auto& gyro = cal[6];
   EXPECT_EQ(gyro[2], "gyroscope");
   EXPECT_NEAR(std::stod(gyro[5]), 0.5, 1e-9);

@@ -66,9 +66,12 @@ struct EstimatorOptions {
   double huber_sigma = 3.0;           // robust loss threshold [sigma units], 0: plain squares
   bool estimate_extrinsics = true;    // camera-IMU T_C_I of every camera
   bool estimate_time_offsets = true;  // timeshift_cam_imu of every camera
-  // Camera intrinsics and distortion: the factors are differentiable in them, but estimating
-  // them is not validated yet (the intrinsics issue); keep false.
+  // Camera intrinsics [fu fv pu pv] and distortion coefficients of every camera, with priors
+  // from the configuration's intrinsics_std / distortion_coeffs_std keys or these defaults.
   bool estimate_intrinsics = false;
+  double intrinsics_focal_prior_px = 10.0;   // fu, fv [px]
+  double intrinsics_centre_prior_px = 10.0;  // pu, pv [px]
+  double distortion_prior = 0.05;            // every coefficient
   int init_frames = 10;        // consecutive cam0 frames with a board pose to initialize
   int min_tags = 2;            // tags a frame needs to be used at all
   double gravity_m_s2 = 9.81;  // magnitude of gravity
@@ -160,7 +163,8 @@ struct EstimatorCounters {
   long imu_non_finite = 0;
   long imu_gaps = 0;  // intervals longer than 2.5 nominal periods
   long frames_too_few_tags = 0;
-  long frames_too_old = 0;  // before the window
+  long frames_too_old = 0;    // before the window
+  long frames_too_close = 0;  // cam0 frames within 5 ms of the newest state (after a clock move)
   long frames_out_of_order = 0;
   long frames_in_imu_gap = 0;  // their pose would rest on made-up readings
   long resets = 0;

@@ -31,7 +31,9 @@ CameraCalibrationError inertialError(const InertialSensor& truth, const Inertial
 // A table of every camera's and auxiliary inertial sensor's extrinsic rotation, translation (not
 // for gyroscopes) and time offset: the initial
 // guess's error, the estimate's error and the estimate's 3-sigma bound when `truth` is given;
-// otherwise the estimate and its 3-sigma.
+// otherwise the estimate and its 3-sigma. Cameras whose intrinsics were estimated add rows for
+// the focal lengths, the centre and the distortion coefficients: the largest |error| of each
+// group and the largest 3 sigma.
 std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig* truth);
 
 }  // namespace mvis

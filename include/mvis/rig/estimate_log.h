@@ -4,7 +4,8 @@
 // calibration.csv: one row per calibrated sensor (every camera, auxiliary IMU and gyroscope)
 // after every solve:
 //   stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,
-//   std_rx,std_ry,std_rz,std_px,std_py,std_pz,std_time_offset
+//   std_rx,std_ry,std_rz,std_px,std_py,std_pz,std_time_offset,
+//   fu,fv,pu,pv,k1,k2,k3,k4,std_fu,std_fv,std_pu,std_pv,std_k1,std_k2,std_k3,std_k4
 //   stamp        base-clock time of the newest window state [s] ("sec.nsec", exact)
 //   sensor       name (cam0, imu1, ...); kind: camera | imu | gyroscope
 //   rx ry rz     rotation vector Log(R) [rad] of T_cam_imu (cameras) or T_i_b (IMUs, gyroscopes)
@@ -14,6 +15,9 @@
 //                perturbation, doc/conventions.md); nan before the first covariance, 0 for a
 //                quantity held constant; they are the latest covariance's (computed every
 //                `covariance_every` solves)
+//   fu ... k4    a camera's intrinsics [px] and distortion coefficients (radtan k1 k2 p1 p2 or
+//                equidistant k1 k2 k3 k4, as distortion_coeffs), with std_* as above (0 when not
+//                estimated); nan for IMUs and gyroscopes
 //
 // pose_covariance.csv: one row per covariance of the newest window pose:
 //   stamp,tx,ty,tz,qx,qy,qz,qw,c00,c01,...,c55
@@ -56,8 +60,8 @@ class EstimateLog {
  private:
   struct CalibrationRow {
     TimeNs stamp_ns;
-    int sensor;  // index into names_
-    Eigen::Matrix<double, 7, 1> value, std;
+    int sensor;                               // index into names_
+    Eigen::Matrix<double, 15, 1> value, std;  // extrinsic, time offset, intrinsics
   };
   struct PoseRow {
     TimeNs stamp_ns;

@@ -25,6 +25,9 @@ Status validate(const EstimatorOptions& o) {
                                                               o.extrinsic_rotation_prior_rad},
                                {"extrinsic_translation_prior_m", o.extrinsic_translation_prior_m},
                                {"time_offset_prior_s", o.time_offset_prior_s},
+                               {"intrinsics_focal_prior_px", o.intrinsics_focal_prior_px},
+                               {"intrinsics_centre_prior_px", o.intrinsics_centre_prior_px},
+                               {"distortion_prior", o.distortion_prior},
                                {"bias_gyro_prior", o.bias_gyro_prior},
                                {"bias_accel_prior", o.bias_accel_prior},
                                {"velocity_prior", o.velocity_prior},
@@ -146,6 +149,14 @@ void Estimator::Impl::process() {
     if (imu.empty() || imu.back().stamp_ns < t) return;  // wait for the IMU to pass t
     if (imu.front().stamp_ns > t || (!states.empty() && t <= states.back()->t)) {
       ++counters.frames_too_old;
+      base_frames.pop_front();
+      continue;
+    }
+    // A state right after the last one (cam0's time offset moved by about a frame period since
+    // it was placed) would make an IMU factor over a fraction of a reading period, whose
+    // information is near-singular and swamps the solve.
+    if (!states.empty() && t - states.back()->t < kMinStateIntervalNs) {
+      ++counters.frames_too_close;
       base_frames.pop_front();
       continue;
     }

@@ -29,6 +29,9 @@
 #include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
+
+// Window states closer than this to the previous one are not made (the frame is dropped).
+constexpr TimeNs kMinStateIntervalNs = 5000000;  // 5 ms
 namespace estimator_internal {
 
 using Clock = std::chrono::steady_clock;
@@ -97,6 +100,9 @@ struct CameraBlocks {
   double time_offset[1];        // [s]
   double intrinsics[kIntrinsicsSize];
   CalibrationPrior prior;  // of the extrinsic and time offset
+  // Of [fu fv pu pv k1 k2 k3 k4] (used when the intrinsics are estimated).
+  Eigen::Matrix<double, kIntrinsicsSize, 1> intrinsics_prior =
+      Eigen::Matrix<double, kIntrinsicsSize, 1>::Zero();
 };
 
 // An auxiliary IMU or gyroscope (rig.inertial[sensor], sensor >= 1): calibration blocks,

@@ -41,6 +41,21 @@ void Estimator::Impl::addCalibrationBlocks() {
         new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / prior.time_offset),
                                Eigen::Matrix<double, 1, 1>(b.time_offset[0])),
         nullptr, b.time_offset);
+    // Intrinsics: the configuration's *_std keys where they are positive, else the defaults.
+    for (int i = 0; i < kIntrinsicsSize; ++i) {
+      const double fallback = i < 2   ? options.intrinsics_focal_prior_px
+                              : i < 4 ? options.intrinsics_centre_prior_px
+                                      : options.distortion_prior;
+      const double given = !sd ? 0.0 : i < 4 ? sd->intrinsics[i] : sd->distortion_coeffs[i - 4];
+      b.intrinsics_prior[i] = given > 0.0 ? given : fallback;
+    }
+    if (options.estimate_intrinsics) {
+      using Vector8d = Eigen::Matrix<double, kIntrinsicsSize, 1>;
+      problem->AddResidualBlock(
+          new ceres::NormalPrior(Eigen::MatrixXd(b.intrinsics_prior.cwiseInverse().asDiagonal()),
+                                 Vector8d(Eigen::Map<const Vector8d>(b.intrinsics))),
+          nullptr, b.intrinsics);
+    }
   }
   addAuxCalibrationBlocks();
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <tuple>
 
 namespace mvis {
 
@@ -129,6 +130,35 @@ std::string rows(const SpatialTemporal& ini, const SpatialTemporal& est,
   return out;
 }
 
+// Intrinsics rows of a camera whose intrinsics were estimated (nonzero std): the largest
+// |error| (or change) of the focal lengths, of the centre and of the distortion coefficients.
+std::string intrinsicRows(const Camera& ini, const Camera& est, const Camera* truth) {
+  if (!est.std || (est.std->intrinsics.array() == 0.0).all()) return "";
+  Eigen::Matrix<double, 8, 1> x0, x, sd, ref;
+  x0 << ini.intrinsics, ini.distortion_coeffs;
+  x << est.intrinsics, est.distortion_coeffs;
+  sd << est.std->intrinsics, est.std->distortion_coeffs;
+  if (truth != nullptr) ref << truth->intrinsics, truth->distortion_coeffs;
+  std::string out;
+  for (const auto& [label, first, count] :
+       {std::tuple<const char*, int, int>{"focal lengths [px]", 0, 2},
+        {"centre [px]", 2, 2},
+        {"distortion", 4, 4}}) {
+    const auto seg = [&](const Eigen::Matrix<double, 8, 1>& v) { return v.segment(first, count); };
+    const double three_sigma = 3.0 * seg(sd).maxCoeff();
+    if (truth != nullptr) {
+      const Eigen::VectorXd e0 = seg(ref) - seg(x0), e1 = seg(ref) - seg(x);
+      const bool inside = (e1.array().abs() <= 3.0 * seg(sd).array()).all();
+      out += row(est.name.c_str(), label, e0.cwiseAbs().maxCoeff(), e1.cwiseAbs().maxCoeff(),
+                 three_sigma, inside ? "yes" : "no");
+    } else {
+      out += row(est.name.c_str(), label, 0.0, (seg(x) - seg(x0)).cwiseAbs().maxCoeff(),
+                 three_sigma, "(change from initial)");
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate) {
@@ -153,6 +183,8 @@ std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig*
   for (std::size_t c = 0; c < estimate.cameras.size(); ++c) {
     const SpatialTemporal t = truth ? ofCamera(truth->cameras[c]) : SpatialTemporal{};
     out += rows(ofCamera(initial.cameras[c]), ofCamera(estimate.cameras[c]), truth ? &t : nullptr);
+    out += intrinsicRows(initial.cameras[c], estimate.cameras[c],
+                         truth ? &truth->cameras[c] : nullptr);
   }
   for (std::size_t i = 1; i < estimate.inertial.size(); ++i) {
     const SpatialTemporal t = truth ? ofInertial(truth->inertial[i]) : SpatialTemporal{};

@@ -91,6 +91,10 @@ double clockCorrection(const std::deque<std::pair<TimeNs, Eigen::Matrix3d>>& h,
   std::vector<double> sorted(costs.begin(), costs.end());
   std::sort(sorted.begin(), sorted.end());
   if (!(costs[best] < 0.3 * sorted[sorted.size() / 2])) return 0.0;  // no clear winner
+  // Near the true offset the cost is flat (within 25% over +-40 ms on hand-held motion): only an
+  // offset clearly worse than the best is corrected, or a few-ms error would be "corrected"
+  // by tens of ms.
+  if (!(costs[steps] > 2.0 * costs[best])) return 0.0;
   double delta = (best - steps) * 0.001;
   if (best > 0 && best < 2 * steps && std::isfinite(costs[best - 1]) &&
       std::isfinite(costs[best + 1])) {

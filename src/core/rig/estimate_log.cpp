@@ -52,9 +52,11 @@ int EstimateLog::sensorIndex(const std::string& name, const char* kind) {
 void EstimateLog::addCalibration(TimeNs stamp_ns, const Rig& rig) {
   for (const Camera& c : rig.cameras) {
     CalibrationRow row{stamp_ns, sensorIndex(c.name, "camera"), {}, {}};
-    row.value << lie::logQuat(c.T_cam_imu.q), c.T_cam_imu.p, c.timeshift_cam_imu;
+    row.value << lie::logQuat(c.T_cam_imu.q), c.T_cam_imu.p, c.timeshift_cam_imu, c.intrinsics,
+        c.distortion_coeffs;
     if (c.std) {
-      row.std << c.std->rotation, c.std->translation, c.std->timeshift_cam_imu;
+      row.std << c.std->rotation, c.std->translation, c.std->timeshift_cam_imu, c.std->intrinsics,
+          c.std->distortion_coeffs;
     } else {
       row.std.setConstant(kNaN);
     }
@@ -64,9 +66,11 @@ void EstimateLog::addCalibration(TimeNs stamp_ns, const Rig& rig) {
     const InertialSensor& s = rig.inertial[i];
     const bool gyro = s.type == InertialType::kGyroscope;
     CalibrationRow row{stamp_ns, sensorIndex(s.name, gyro ? "gyroscope" : "imu"), {}, {}};
-    row.value << lie::logQuat(s.T_i_b.q), s.T_i_b.p, s.time_offset;
+    row.value << lie::logQuat(s.T_i_b.q), s.T_i_b.p, s.time_offset,
+        Eigen::Matrix<double, 8, 1>::Constant(kNaN);
     if (s.std) {
-      row.std << s.std->rotation, s.std->translation, s.std->time_offset;
+      row.std << s.std->rotation, s.std->translation, s.std->time_offset,
+          Eigen::Matrix<double, 8, 1>::Constant(kNaN);
     } else {
       row.std.setConstant(kNaN);
     }
@@ -97,13 +101,16 @@ Status EstimateLog::write(const std::string& dir) const {
   if (!file) return Status::Error(calibration_path + ": cannot write");
   std::fputs(
       "stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,std_rx,std_ry,std_rz,std_px,std_py,"
-      "std_pz,std_time_offset\n",
+      "std_pz,std_time_offset,fu,fv,pu,pv,k1,k2,k3,k4,std_fu,std_fv,std_pu,std_pv,std_k1,std_k2,"
+      "std_k3,std_k4\n",
       file);
   for (const CalibrationRow& row : calibration_) {
     writeStamp(file, row.stamp_ns);
     std::fprintf(file, ",%s,%s", names_[row.sensor].c_str(), kinds_[row.sensor].c_str());
     for (int i = 0; i < 7; ++i) writeNumber(file, row.value[i]);
     for (int i = 0; i < 7; ++i) writeNumber(file, row.std[i]);
+    for (int i = 7; i < 15; ++i) writeNumber(file, row.value[i]);
+    for (int i = 7; i < 15; ++i) writeNumber(file, row.std[i]);
     std::fputc('\n', file);
   }
   if (std::fclose(file) != 0) return Status::Error(calibration_path + ": cannot write");
