@@ -110,6 +110,7 @@ void MvisNodelet::onInit() {
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
     eo.estimate_aux_time_offsets = options_.estimate_aux_time_offsets;
     eo.estimate_intrinsics = options_.estimate_intrinsics;
+    eo.hold = options_.hold;
     eo.aux_imu_model = options_.aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity
                                                                   : AuxImuModel::kVelocityState;
     eo.max_iterations = options_.max_iterations;

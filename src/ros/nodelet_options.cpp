@@ -21,6 +21,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
   nh.param("estimate_aux_time_offsets", o.estimate_aux_time_offsets, o.estimate_aux_time_offsets);
   nh.param("estimate_intrinsics", o.estimate_intrinsics, o.estimate_intrinsics);
+  nh.param("hold", o.hold, o.hold);
   nh.param("aux_imu_model", o.aux_imu_model, o.aux_imu_model);
   nh.param("max_iterations", o.max_iterations, o.max_iterations);
   nh.param("solve_every", o.solve_every, o.solve_every);

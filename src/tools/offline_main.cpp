@@ -1,7 +1,7 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
-//              [--estimate-intrinsics]
+//              [--estimate-intrinsics] [--hold SENSOR.QUANTITY]...
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -29,6 +29,7 @@ int usage(const char* message) {
                "                    [--max-iterations N] [--solve-every N]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
+               "                    [--hold SENSOR.QUANTITY]...\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -44,7 +45,9 @@ int usage(const char* message) {
                "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
                "                   0: off; see config/mvis.yaml)\n"
-               "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n",
+               "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n"
+               "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
+               "                   intrinsics) at its configured value; repeatable\n",
                message);
   return 2;
 }
@@ -62,6 +65,7 @@ int main(int argc, char** argv) {
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
   bool estimate_intrinsics = false;
+  std::vector<std::string> hold;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
@@ -112,6 +116,10 @@ int main(int argc, char** argv) {
       observability_ratio = std::atof(v.c_str());
     } else if (arg == "--estimate-intrinsics") {
       estimate_intrinsics = true;
+    } else if (arg == "--hold") {
+      std::string v;
+      if (!value(&v)) return usage("--hold takes SENSOR.QUANTITY, e.g. cam1.intrinsics");
+      hold.push_back(v);
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -152,6 +160,7 @@ int main(int argc, char** argv) {
                                         : mvis::AuxImuModel::kVelocityState;
   options.estimator.observability_ratio = observability_ratio;
   options.estimator.estimate_intrinsics = estimate_intrinsics;
+  options.estimator.hold = hold;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {

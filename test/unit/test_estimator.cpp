@@ -575,6 +575,44 @@ TEST(Estimator, CalibratesCameraIntrinsics) {
   }
 }
 
+// Per-sensor holds: a held quantity keeps its configured value (std 0), the rest of its class is
+// estimated; a hold naming no sensor of the rig, or a quantity the sensor lacks, is refused.
+TEST(Estimator, HoldsNamedQuantitiesAndRefusesUnknownOnes) {
+  const SimRun run = simulate("sim_vi_rig", 5.0, 3, MotionKind::kHandheld, true);
+  EstimatorOptions options = deterministic();
+  options.estimate_intrinsics = true;
+  for (const auto& [bad, says] :
+       {std::pair<std::string, std::string>{"cam7.intrinsics", "(cam0, cam1, cam2, imu1, imu2)"},
+        {"imu1.intrinsics", "quantity must be extrinsic, time_offset, got 'intrinsics'"},
+        {"cam1", "expected <sensor>.<quantity>"}}) {
+    options.hold = {bad};
+    const auto refused = Estimator::create(run.guess, options);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_NE(refused.status().message().find("estimator option hold: '" + bad + "'"),
+              std::string::npos)
+        << refused.status().message();
+    EXPECT_NE(refused.status().message().find(says), std::string::npos)
+        << refused.status().message();
+  }
+  options.hold = {"cam1.intrinsics", "imu2.time_offset", "cam2.extrinsic"};
+  auto created = Estimator::create(run.guess, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  Estimator& estimator = *created.value();
+  feed(run, &estimator);
+  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  ASSERT_TRUE(estimator.computeCovariance().ok());
+  const Rig estimate = estimator.calibration();
+  EXPECT_EQ(estimate.cameras[1].intrinsics, run.guess.cameras[1].intrinsics);
+  EXPECT_EQ(estimate.cameras[1].distortion_coeffs, run.guess.cameras[1].distortion_coeffs);
+  EXPECT_EQ(estimate.cameras[1].std->intrinsics, Eigen::Vector4d::Zero());
+  EXPECT_NE(estimate.cameras[0].intrinsics, run.guess.cameras[0].intrinsics);
+  EXPECT_GT(estimate.cameras[0].std->intrinsics.minCoeff(), 0.0);
+  EXPECT_EQ(estimate.inertial[2].time_offset, run.guess.inertial[2].time_offset);
+  EXPECT_NE(estimate.inertial[1].time_offset, run.guess.inertial[1].time_offset);
+  EXPECT_TRUE(estimate.cameras[2].T_cam_imu.p == run.guess.cameras[2].T_cam_imu.p);
+  EXPECT_FALSE(estimate.cameras[0].T_cam_imu.p == run.guess.cameras[0].T_cam_imu.p);
+}
+
 // An auxiliary sensor that stops for a second leaves the window with a warning and comes back
 // when its readings do; nothing else is disturbed.
 TEST(Estimator, AuxiliarySensorThatStopsLeavesAndRejoins) {

@@ -72,6 +72,10 @@ struct EstimatorOptions {
   double intrinsics_focal_prior_px = 10.0;   // fu, fv [px]
   double intrinsics_centre_prior_px = 10.0;  // pu, pv [px]
   double distortion_prior = 0.05;            // every coefficient
+  // Per sensor: quantities held at their configured value although their class is estimated,
+  // as "<sensor>.<quantity>" with quantity extrinsic, time_offset or (cameras) intrinsics,
+  // e.g. {"cam1.intrinsics", "imu2.time_offset"}. The base IMU has none.
+  std::vector<std::string> hold;
   int init_frames = 10;        // consecutive cam0 frames with a board pose to initialize
   int min_tags = 2;            // tags a frame needs to be used at all
   double gravity_m_s2 = 9.81;  // magnitude of gravity

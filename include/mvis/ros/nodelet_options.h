@@ -4,6 +4,7 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <vector>
 
 namespace mvis {
 
@@ -26,6 +27,7 @@ struct NodeletOptions {
   bool estimate_aux_extrinsics = true;           // T_i_b of aux IMUs (rotation of gyroscopes)
   bool estimate_aux_time_offsets = true;         // time_offset of aux IMUs and gyroscopes
   bool estimate_intrinsics = false;              // every camera's intrinsics and distortion
+  std::vector<std::string> hold;                 // "<sensor>.<quantity>" held (EstimatorOptions)
   std::string aux_imu_model = "velocity_state";  // or "rigid_velocity" (report Appendix B)
   int max_iterations = 10;                       // per solve
   int solve_every = 3;                           // solve after every n-th cam0 frame

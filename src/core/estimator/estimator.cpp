@@ -2,6 +2,36 @@
 
 namespace mvis {
 
+static Status validateHolds(const Rig& rig, const std::vector<std::string>& hold) {
+  for (const std::string& entry : hold) {
+    const auto dot = entry.rfind('.');
+    const std::string sensor = entry.substr(0, dot == std::string::npos ? 0 : dot);
+    const std::string quantity = dot == std::string::npos ? "" : entry.substr(dot + 1);
+    std::string names;
+    bool camera = false, inertial = false;
+    for (const auto& c : rig.cameras) {
+      names += (names.empty() ? "" : ", ") + c.name;
+      camera = camera || c.name == sensor;
+    }
+    for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+      names += ", " + rig.inertial[i].name;
+      inertial = inertial || rig.inertial[i].name == sensor;
+    }
+    const std::string where = "estimator option hold: '" + entry + "': ";
+    if (!camera && !inertial) {
+      return Status::Error(where + "expected <sensor>.<quantity> with a camera or auxiliary " +
+                           "sensor of the rig (" + names + ")");
+    }
+    const bool known = quantity == "extrinsic" || quantity == "time_offset" ||
+                       (camera && quantity == "intrinsics");
+    if (!known) {
+      return Status::Error(where + "quantity must be extrinsic, time_offset" +
+                           (camera ? " or intrinsics" : "") + ", got '" + quantity + "'");
+    }
+  }
+  return Status::Ok();
+}
+
 Status validate(const EstimatorOptions& o) {
   auto bad = [](const std::string& key, const std::string& why) {
     return Status::Error("estimator option " + key + ": " + why);
@@ -323,6 +353,8 @@ StatusOr<std::unique_ptr<Estimator>> Estimator::create(const Rig& rig,
     return Status::Error(
         "the rig has no aprilgrid.yaml: tag corners as landmark states are not supported yet");
   }
+  Status holds_valid = validateHolds(rig, options.hold);
+  if (!holds_valid.ok()) return holds_valid;
   return std::unique_ptr<Estimator>(new Estimator(std::make_unique<Impl>(rig, options)));
 }
 

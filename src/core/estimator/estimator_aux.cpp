@@ -277,8 +277,12 @@ void Estimator::Impl::addAuxCalibrationBlocks() {
       problem->AddParameterBlock(a.extrinsic, kPoseSize, &pose_manifold);
     }
     problem->AddParameterBlock(a.time_offset, 1);
-    if (!options.estimate_aux_extrinsics) problem->SetParameterBlockConstant(a.extrinsicBlock());
-    if (!options.estimate_aux_time_offsets) problem->SetParameterBlockConstant(a.time_offset);
+    if (!options.estimate_aux_extrinsics || heldByOption(config.name, "extrinsic")) {
+      problem->SetParameterBlockConstant(a.extrinsicBlock());
+    }
+    if (!options.estimate_aux_time_offsets || heldByOption(config.name, "time_offset")) {
+      problem->SetParameterBlockConstant(a.time_offset);
+    }
     // Priors from the configuration's *_std keys, or the options' defaults.
     const auto& sd = config.std;
     a.prior = estimator_internal::calibrationPrior(

@@ -383,6 +383,12 @@ struct Estimator::Impl {
   // with the variance they keep).
   Eigen::MatrixXd tangentCovariance(const ceres::Covariance& cov, const double* block) const;
 
+  // Whether options.hold holds `quantity` of `sensor` at its configured value.
+  bool heldByOption(const std::string& sensor, const char* quantity) const {
+    return std::find(options.hold.begin(), options.hold.end(), sensor + "." + quantity) !=
+           options.hold.end();
+  }
+
   // Whether a calibration block is estimated (not constant, or constant only while held).
   bool estimated(const double* block) const {
     return holds.count(block) > 0 || !problem->IsParameterBlockConstant(block);

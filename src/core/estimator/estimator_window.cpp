@@ -24,9 +24,15 @@ void Estimator::Impl::addCalibrationBlocks() {
     problem->AddParameterBlock(b.extrinsic, kPoseSize, &pose_manifold);
     problem->AddParameterBlock(b.time_offset, 1);
     problem->AddParameterBlock(b.intrinsics, kIntrinsicsSize);
-    if (!options.estimate_extrinsics) problem->SetParameterBlockConstant(b.extrinsic);
-    if (!options.estimate_time_offsets) problem->SetParameterBlockConstant(b.time_offset);
-    if (!options.estimate_intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
+    const std::string& name = rig.cameras[c].name;
+    const bool intrinsics = options.estimate_intrinsics && !heldByOption(name, "intrinsics");
+    if (!options.estimate_extrinsics || heldByOption(name, "extrinsic")) {
+      problem->SetParameterBlockConstant(b.extrinsic);
+    }
+    if (!options.estimate_time_offsets || heldByOption(name, "time_offset")) {
+      problem->SetParameterBlockConstant(b.time_offset);
+    }
+    if (!intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
     // Priors from the configuration's *_std keys, or the options' defaults.
     const auto& sd = rig.cameras[c].std;
     b.prior = estimator_internal::calibrationPrior(
@@ -49,7 +55,7 @@ void Estimator::Impl::addCalibrationBlocks() {
       const double given = !sd ? 0.0 : i < 4 ? sd->intrinsics[i] : sd->distortion_coeffs[i - 4];
       b.intrinsics_prior[i] = given > 0.0 ? given : fallback;
     }
-    if (options.estimate_intrinsics) {
+    if (intrinsics) {
       using Vector8d = Eigen::Matrix<double, kIntrinsicsSize, 1>;
       problem->AddResidualBlock(
           new ceres::NormalPrior(Eigen::MatrixXd(b.intrinsics_prior.cwiseInverse().asDiagonal()),
