@@ -76,3 +76,4 @@ mvis_core_test(test_estimate_log test/unit/test_estimate_log.cpp)
 # synthetic inputs with known answers, with Debian's python3 and numpy/matplotlib.
 add_test(NAME python_evaluation
   COMMAND /usr/bin/python3 -m unittest discover -s ${PROJECT_SOURCE_DIR}/test/python -v)
+mvis_core_test(test_imu_correction test/unit/test_imu_correction.cpp)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <limits>
 
 #include "mvis/estimator/estimator.h"
@@ -47,11 +48,13 @@ struct SimRun {
 };
 
 SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t seed,
-                MotionKind motion = MotionKind::kHandheld, bool perturb_intrinsics = false) {
+                MotionKind motion = MotionKind::kHandheld, bool perturb_intrinsics = false,
+                const std::function<void(Rig*)>& edit_truth = nullptr) {
   SimRun run;
   auto truth = loadRig(std::string(MVIS_SOURCE_DIR) + "/config/" + rig_dir);
   EXPECT_TRUE(truth.ok()) << truth.status().message();
   run.truth = truth.value();
+  if (edit_truth) edit_truth(&run.truth);
   SimulationConfig config;
   config.duration_s = duration_s;
   config.seed = seed;
@@ -572,6 +575,70 @@ TEST(Estimator, CalibratesCameraIntrinsics) {
     EXPECT_LT(x.rotation_deg, 0.05) << truth.name;
     EXPECT_LT(x.translation_mm, 1.5) << truth.name;
     EXPECT_LT(x.time_offset_ms, 0.1) << truth.name;
+  }
+}
+
+// IMUs with scale, misalignment, gravity sensitivity and accelerometer rotation (report Table 4
+// sizes) whose intrinsics the configuration gives: their readings are corrected by them, and
+// the calibration is as good as with calibrated IMUs. Measured (seed 5, 20 s): largest
+// calibration error/sigma 2.45 over every camera and aux axis, ATE after 5 s 1.25 mm; with the
+// intrinsics taken as identity instead (what mvis did before), 17.4 and 3.8 mm.
+TEST(Estimator, UsesTheConfiguredImuIntrinsics) {
+  const auto with_intrinsics = [](Rig* rig) {
+    for (auto& s : rig->inertial) {
+      s.model = ImuModel::kRpng;
+      s.intrinsics.Tw << 1.003, -0.002, 0.003, 0, 0.997, 0.002, 0, 0, 1.002;
+      s.intrinsics.Ta << 0.998, 0.003, -0.002, 0, 1.003, 0.001, 0, 0, 0.997;
+      if (s.type != InertialType::kGyroscope) {
+        s.intrinsics.Tg << 1e-3, -1e-3, 5e-4, 5e-4, 1e-3, -5e-4, -1e-3, 5e-4, 1e-3;
+        s.intrinsics.R_IMUtoACC = lie::expSO3(Eigen::Vector3d(0.003, -0.003, 0.002));
+      }
+    }
+  };
+  const SimRun run = simulate("sim_vi_rig", 20.0, 5, MotionKind::kHandheld, false, with_intrinsics);
+  for (const bool known : {true, false}) {
+    Rig guess = run.guess;  // carries the true intrinsics (no intrinsics perturbation)
+    if (!known) {
+      for (auto& s : guess.inertial) s.intrinsics = ImuIntrinsics();
+    }
+    EstimatorOptions options = deterministic();
+    options.pixel_sigma_px = 0.5;
+    auto created = Estimator::create(guess, options);
+    ASSERT_TRUE(created.ok());
+    Estimator& estimator = *created.value();
+    feed(run, &estimator);
+    ASSERT_TRUE(estimator.initialized()) << estimator.status();
+    ASSERT_TRUE(estimator.computeCovariance().ok());
+    const Rig estimate = estimator.calibration();
+    double worst = 0.0;
+    for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+      const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
+      worst = std::max({worst, e.rotation_sigma_ratio.maxCoeff(),
+                        e.translation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio});
+      if (known) {
+        EXPECT_LT(e.rotation_deg, 0.05) << run.truth.cameras[c].name;
+        EXPECT_LT(e.translation_mm, 1.5) << run.truth.cameras[c].name;
+        EXPECT_LT(e.time_offset_ms, 0.1) << run.truth.cameras[c].name;
+      }
+    }
+    for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
+      const CameraErrors e = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
+      worst = std::max({worst, e.rotation_sigma_ratio.maxCoeff(),
+                        e.translation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio});
+    }
+    // ATE after the first 5 s (before, the initial calibration's error dominates).
+    std::vector<EstimatorState> converged;
+    const auto trajectory = estimator.trajectory();
+    for (const auto& st : trajectory) {
+      if (st.stamp_ns - trajectory.front().stamp_ns > fromSeconds(5.0)) converged.push_back(st);
+    }
+    const double ate = positionRmse(converged, run.truth_trajectory);
+    std::printf("IMU intrinsics %s: largest calibration error/sigma %.2f, ATE after 5 s %.2f mm\n",
+                known ? "known" : "taken as identity", worst, ate * 1e3);
+    if (known) {
+      EXPECT_LT(worst, 3.0);
+      EXPECT_LT(ate, 0.003);
+    }
   }
 }
 

@@ -119,6 +119,8 @@ struct EstimatorState {
   TimeNs stamp_ns = 0;  // base clock
   SE3 T_G_I;            // base IMU in the world (board) frame
   Eigen::Vector3d v_G = Eigen::Vector3d::Zero();
+  // Biases of the readings corrected by the base IMU's configured intrinsics (b_g', b_a' of
+  // imu_correction.h; the raw readings' own when the IMU model is calibrated).
   Eigen::Vector3d bias_gyro = Eigen::Vector3d::Zero();
   Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
 };

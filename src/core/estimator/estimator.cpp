@@ -93,16 +93,17 @@ Status Estimator::Impl::withWarning(Status s) {
   return out;
 }
 
-Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& m) {
+Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
   if (sensor >= rig.inertial.size()) {
     ++counters.aux_dropped;
     return Status::Error("reading of an unknown inertial sensor " + std::to_string(sensor));
   }
-  if (sensor != 0) return addAuxReading(sensor, m);
-  if (!m.gyro.allFinite() || !m.accel.allFinite()) {
+  if (sensor != 0) return addAuxReading(sensor, raw);
+  if (!raw.gyro.allFinite() || !raw.accel.allFinite()) {
     ++counters.imu_non_finite;
     return Status::Error(rig.inertial[0].name + ": non-finite reading dropped");
   }
+  const ImuMeasurement m = imu_corrections[0].apply(raw, false);
   if (last_imu != std::numeric_limits<TimeNs>::min() && m.stamp_ns <= last_imu) {
     if (m.stamp_ns < last_imu - kNsPerSecond) {
       const double back = toSeconds(last_imu - m.stamp_ns);
@@ -355,6 +356,13 @@ StatusOr<std::unique_ptr<Estimator>> Estimator::create(const Rig& rig,
   }
   Status holds_valid = validateHolds(rig, options.hold);
   if (!holds_valid.ok()) return holds_valid;
+  for (const auto& sensor : rig.inertial) {
+    if (sensor.type == InertialType::kGyroscope && !sensor.intrinsics.Tg.isZero(0.0)) {
+      return Status::Error(sensor.name +
+                           ": Tg (gravity sensitivity) of a gyroscope is not supported: it has "
+                           "no accelerometer to read the specific force with; set it to zero");
+    }
+  }
   return std::unique_ptr<Estimator>(new Estimator(std::make_unique<Impl>(rig, options)));
 }
 

@@ -28,6 +28,7 @@ Status Estimator::Impl::addAuxReading(std::size_t sensor, const ImuMeasurement& 
     ++counters.aux_dropped;
     return Status::Error(config.name + ": non-finite reading dropped");
   }
+  r = imu_corrections[sensor].apply(r, a.gyro);
   if (a.last != std::numeric_limits<TimeNs>::min() && r.stamp_ns <= a.last) {
     if (r.stamp_ns >= a.last - kNsPerSecond) {
       ++counters.aux_dropped;

@@ -18,6 +18,7 @@
 
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/estimator.h"
+#include "mvis/estimator/imu_correction.h"
 #include "mvis/estimator/initialization.h"
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/aux_imu_factor.h"
@@ -218,8 +219,11 @@ struct Estimator::Impl {
     Eigen::VectorXd variance;
   };
   std::map<const double*, Hold> holds;
+  // Per inertial sensor: its readings corrected by its configured intrinsics (imu_correction.h).
+  std::vector<ImuCorrection> imu_corrections;
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
+    for (const auto& sensor : rig.inertial) imu_corrections.emplace_back(sensor.intrinsics);
     for (const auto& cam : rig.cameras) {
       auto blocks = std::make_unique<CameraBlocks>();
       se3ToPose(cam.T_cam_imu, blocks->extrinsic);

@@ -1,0 +1,37 @@
+// Readings corrected by an inertial sensor's known intrinsics (the rpng model, report Eq. 1-4,
+// rig.h), so that the estimator can treat every sensor as calibrated.
+//
+// With R_IMUtoGYRO = I (mvis puts the inertial frame on the gyroscope):
+//   a_m = Ta R_IMUtoACC a_I + b_a,   w_m = Tw w_I + Tg a_I + b_g.
+// The corrected readings
+//   a' = R_IMUtoACC^T Ta^-1 a_m = a_I + b_a'
+//   w' = Tw^-1 (w_m - Tg a')    = w_I + b_g'
+// follow the calibrated model with the biases
+//   b_a' = R_IMUtoACC^T Ta^-1 b_a,   b_g' = Tw^-1 (b_g - Tg b_a'),
+// which are what the estimator's bias states then hold (they still walk randomly; the noise
+// densities change by the intrinsics' few parts per thousand, which is ignored). A gyroscope has
+// no accelerometer: w' = Tw^-1 w_m, and its Tg must be zero (Estimator::create refuses it).
+//
+// The intrinsics are taken as known here; estimating them is the intrinsics issue's
+// re-integration.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+struct ImuCorrection {
+  Eigen::Matrix3d to_accel = Eigen::Matrix3d::Identity();  // R_IMUtoACC^T Ta^-1
+  Eigen::Matrix3d to_gyro = Eigen::Matrix3d::Identity();   // Tw^-1
+  Eigen::Matrix3d gravity = Eigen::Matrix3d::Zero();       // Tw^-1 Tg
+  bool identity = true;                                    // nothing to correct
+
+  explicit ImuCorrection(const ImuIntrinsics& intrinsics = ImuIntrinsics());
+  // The corrected reading; `gyro_only`: the accelerometer part is left as it is.
+  ImuMeasurement apply(const ImuMeasurement& m, bool gyro_only) const;
+};
+
+}  // namespace mvis

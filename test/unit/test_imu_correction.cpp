@@ -1,0 +1,55 @@
+// Readings corrected by known IMU intrinsics follow the calibrated model with transformed
+// biases (imu_correction.h), checked against the rpng model written out directly.
+#include <gtest/gtest.h>
+
+#include "mvis/common/lie.h"
+#include "mvis/estimator/imu_correction.h"
+
+namespace mvis {
+namespace {
+
+ImuIntrinsics someIntrinsics() {
+  ImuIntrinsics in;
+  in.Tw << 1.003, -0.002, 0.001, 0, 0.998, 0.0025, 0, 0, 1.001;
+  in.Ta << 0.997, 0.003, -0.001, 0, 1.002, -0.002, 0, 0, 1.004;
+  in.Tg << 1e-3, -5e-4, 2e-4, 3e-4, 8e-4, -1e-4, -2e-4, 1e-4, 6e-4;
+  in.R_IMUtoACC = lie::expSO3(Eigen::Vector3d(0.003, -0.002, 0.001));
+  return in;
+}
+
+TEST(ImuCorrection, CorrectedReadingsFollowTheCalibratedModel) {
+  const ImuIntrinsics in = someIntrinsics();
+  const ImuCorrection correction(in);
+  EXPECT_FALSE(correction.identity);
+  const Eigen::Vector3d b_g(0.01, -0.02, 0.005), b_a(0.1, -0.05, 0.2);
+  // The biases the corrected readings carry (imu_correction.h).
+  const Eigen::Vector3d b_a_c = in.R_IMUtoACC.transpose() * in.Ta.inverse() * b_a;
+  const Eigen::Vector3d b_g_c = in.Tw.inverse() * (b_g - in.Tg * b_a_c);
+  for (int k = 0; k < 5; ++k) {
+    const Eigen::Vector3d w_I(0.3 * k - 0.5, 1.1 - 0.2 * k, 0.4), a_I(0.5, -9.7 + k, 1.0 - k);
+    ImuMeasurement raw;
+    raw.gyro = in.Tw * w_I + in.Tg * a_I + b_g;
+    raw.accel = in.Ta * in.R_IMUtoACC * a_I + b_a;
+    const ImuMeasurement c = correction.apply(raw, false);
+    EXPECT_LT((c.accel - (a_I + b_a_c)).norm(), 1e-12) << k;
+    EXPECT_LT((c.gyro - (w_I + b_g_c)).norm(), 1e-12) << k;
+    // A gyroscope (Tg zero): only the scale and misalignment.
+    ImuIntrinsics gyro_in = in;
+    gyro_in.Tg.setZero();
+    ImuMeasurement gyro_raw;
+    gyro_raw.gyro = in.Tw * w_I + b_g;
+    const ImuMeasurement g = ImuCorrection(gyro_in).apply(gyro_raw, true);
+    EXPECT_LT((g.gyro - (w_I + in.Tw.inverse() * b_g)).norm(), 1e-12) << k;
+  }
+  // Calibrated intrinsics change nothing.
+  const ImuCorrection none;
+  EXPECT_TRUE(none.identity);
+  ImuMeasurement raw;
+  raw.gyro = Eigen::Vector3d(1, 2, 3);
+  raw.accel = Eigen::Vector3d(4, 5, 6);
+  EXPECT_EQ(none.apply(raw, false).gyro, raw.gyro);
+  EXPECT_EQ(none.apply(raw, false).accel, raw.accel);
+}
+
+}  // namespace
+}  // namespace mvis
