@@ -97,6 +97,21 @@ void feed(const SimRun& run, Estimator* estimator) {
   }
 }
 
+// The estimator from `guess` over the whole run, with its calibration covariance computed;
+// null (and a test failure) if it did not start or initialize.
+std::unique_ptr<Estimator> runFrom(const Rig& guess, const SimRun& run,
+                                   const EstimatorOptions& options) {
+  auto created = Estimator::create(guess, options);
+  EXPECT_TRUE(created.ok()) << created.status().message();
+  if (!created.ok()) return nullptr;
+  std::unique_ptr<Estimator> estimator = std::move(created).value();
+  feed(run, estimator.get());
+  EXPECT_TRUE(estimator->initialized()) << estimator->status();
+  EXPECT_TRUE(estimator->computeCovariance().ok());
+  if (!estimator->initialized()) return nullptr;
+  return estimator;
+}
+
 struct CameraErrors {
   double rotation_deg, translation_mm, time_offset_ms;
   Eigen::Vector3d rotation_sigma_ratio, translation_sigma_ratio;  // |error| / std per axis
@@ -538,13 +553,9 @@ TEST(Estimator, CalibratesCameraIntrinsics) {
   EstimatorOptions options = deterministic();
   options.pixel_sigma_px = 0.5;
   options.estimate_intrinsics = true;
-  auto created = Estimator::create(run.guess, options);
-  ASSERT_TRUE(created.ok());
-  Estimator& estimator = *created.value();
-  feed(run, &estimator);
-  ASSERT_TRUE(estimator.initialized()) << estimator.status();
-  ASSERT_TRUE(estimator.computeCovariance().ok());
-  const Rig estimate = estimator.calibration();
+  const auto estimator = runFrom(run.guess, run, options);
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
   for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
     const Camera& truth = run.truth.cameras[c];
     const Camera& guess = run.guess.cameras[c];
@@ -603,13 +614,9 @@ TEST(Estimator, UsesTheConfiguredImuIntrinsics) {
     }
     EstimatorOptions options = deterministic();
     options.pixel_sigma_px = 0.5;
-    auto created = Estimator::create(guess, options);
-    ASSERT_TRUE(created.ok());
-    Estimator& estimator = *created.value();
-    feed(run, &estimator);
-    ASSERT_TRUE(estimator.initialized()) << estimator.status();
-    ASSERT_TRUE(estimator.computeCovariance().ok());
-    const Rig estimate = estimator.calibration();
+    const auto estimator = runFrom(guess, run, options);
+    ASSERT_NE(estimator, nullptr);
+    const Rig estimate = estimator->calibration();
     double worst = 0.0;
     for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
       const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
@@ -628,7 +635,7 @@ TEST(Estimator, UsesTheConfiguredImuIntrinsics) {
     }
     // ATE after the first 5 s (before, the initial calibration's error dominates).
     std::vector<EstimatorState> converged;
-    const auto trajectory = estimator.trajectory();
+    const auto trajectory = estimator->trajectory();
     for (const auto& st : trajectory) {
       if (st.stamp_ns - trajectory.front().stamp_ns > fromSeconds(5.0)) converged.push_back(st);
     }
