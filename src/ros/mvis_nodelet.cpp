@@ -11,12 +11,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "mvis/estimator/result_directory.h"
 #include "mvis/frontend/debug_image.h"
 #include "mvis/rig/rig_io.h"
-#include "mvis/rig/trajectory_io.h"
 #include "mvis/ros/conversions.h"
 
 namespace mvis {
@@ -537,15 +536,8 @@ std::string MvisNodelet::saveResult() {
     dir += "/mvis_result";
   }
   estimator_->computeCovariance();
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  Status status = saveRig(estimator_->calibration(), dir);
-  if (status.ok()) {
-    std::vector<StampedPose> poses;
-    for (const auto& s : estimator_->trajectory()) poses.emplace_back(s.stamp_ns, s.T_G_I);
-    status = writeTumTrajectory(dir + "/trajectory.tum", poses);
-  }
-  if (status.ok()) status = estimate_log_.write(dir);
+  const Status status =
+      writeResultDirectory(dir, estimator_->calibration(), estimator_->trajectory(), estimate_log_);
   if (!status.ok()) return status.message();
   NODELET_INFO_STREAM(
       "mvis: wrote the calibration, trajectory.tum and the estimate log (calibration.csv, "

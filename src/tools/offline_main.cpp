@@ -11,11 +11,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <optional>
 #include <string>
 
 #include "mvis/estimator/evaluation.h"
+#include "mvis/estimator/result_directory.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/rig/trajectory_io.h"
 #include "mvis/ros/offline.h"
@@ -178,13 +178,8 @@ int main(int argc, char** argv) {
   }
   const mvis::OfflineResult& r = result.value();
 
-  std::error_code ec;
-  std::filesystem::create_directories(output_dir, ec);
-  mvis::Status saved = mvis::saveRig(r.calibration, output_dir);
-  std::vector<mvis::StampedPose> poses;
-  for (const auto& s : r.trajectory) poses.emplace_back(s.stamp_ns, s.T_G_I);
-  if (saved.ok()) saved = mvis::writeTumTrajectory(output_dir + "/trajectory.tum", poses);
-  if (saved.ok()) saved = r.log.write(output_dir);
+  const mvis::Status saved =
+      mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
   if (!saved.ok()) {
     std::fprintf(stderr, "mvis_offline: %s\n", saved.message().c_str());
     return 1;

@@ -54,8 +54,6 @@ class EstimateLog {
   Status write(const std::string& dir) const;
 
   std::size_t calibrationRows() const { return calibration_.size(); }
-  std::size_t poseRows() const { return poses_.size(); }
-  void clear();
 
  private:
   struct CalibrationRow {

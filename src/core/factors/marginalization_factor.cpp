@@ -125,11 +125,13 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
   // Projected residuals go to their own (Hp, gp) first.
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd Hp = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd gp = Eigen::VectorXd::Zero(n);
+  // Only needed when some directions are to be forgotten.
+  const bool forgetting = !uninformative_.empty();
+  Eigen::MatrixXd Hp = forgetting ? Eigen::MatrixXd::Zero(n, n) : Eigen::MatrixXd();
+  Eigen::VectorXd gp = forgetting ? Eigen::VectorXd::Zero(n) : Eigen::VectorXd();
   bool any_projected = false;
   for (const auto& residual : residuals_) {
-    const bool projected = residual.projected && !uninformative_.empty();
+    const bool projected = residual.projected && forgetting;
     any_projected = any_projected || projected;
     Eigen::MatrixXd& Ha = projected ? Hp : H;
     Eigen::VectorXd& ga = projected ? gp : g;

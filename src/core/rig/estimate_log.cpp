@@ -90,11 +90,6 @@ void EstimateLog::addPose(TimeNs stamp_ns, const SE3& T_G_I,
   thin(&poses_, max_rows_);
 }
 
-void EstimateLog::clear() {
-  calibration_.clear();
-  poses_.clear();
-}
-
 Status EstimateLog::write(const std::string& dir) const {
   const std::string calibration_path = dir + "/calibration.csv";
   std::FILE* file = std::fopen(calibration_path.c_str(), "w");
