@@ -1,6 +1,10 @@
 // A motion and an IMU shared by the inertial tests.
 #pragma once
 
+#include <vector>
+
+#include "mvis/common/lie.h"
+#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/rig/rig.h"
 #include "mvis/sim/trajectory.h"
 
@@ -26,6 +30,26 @@ inline InertialSensor idealImu(double rate_hz) {
   s.update_rate = rate_hz;
   s.noise = {2e-3, 3e-3, 1.7e-4, 1.9e-5};
   return s;
+}
+
+// Intrinsics of the report's Table 4 size (3e-3 on Dw, Da, 1e-3 on Tg, 3e-3 rad on R_IMUtoACC),
+// fixed values with every element nonzero.
+inline ImuIntrinsics tableFourIntrinsics() {
+  ImuIntrinsics in;
+  in.Tw << 1.003, -0.002, 0.004, 0.0, 0.996, 0.001, 0.0, 0.0, 1.002;
+  in.Ta << 0.997, 0.003, -0.001, 0.0, 1.004, -0.003, 0.0, 0.0, 0.998;
+  in.Tg << 1e-3, -5e-4, 2e-4, 7e-4, -1e-3, 3e-4, -4e-4, 6e-4, 8e-4;
+  in.R_IMUtoACC = lie::expSO3(Eigen::Vector3d(0.003, -0.002, 0.004));
+  return in;
+}
+
+// The intrinsics block of `in` relative to R0 = I (so that its rotation entries are generic).
+inline std::vector<double> intrinsicsBlock(const ImuIntrinsics& in) {
+  std::vector<double> b(kImuIntrinsicsSize);
+  intrinsicsToBlock(in, b.data());
+  const Eigen::Vector3d theta = lie::logSO3(in.R_IMUtoACC.transpose());
+  for (int k = 0; k < 3; ++k) b[ImuIntrinsicsLayout::kAccRotation + k] = theta[k];
+  return b;
 }
 
 }  // namespace mvis::test

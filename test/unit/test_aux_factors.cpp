@@ -116,17 +116,33 @@ struct AuxFixture {
 };
 
 // td0_i, td0_j: the offsets the two aux states were made with.
-AuxFixture auxFixture(AuxImuModel model, double td0_i, double td0_j, double k, double rate) {
+// `intrinsics`: readings made with Table 4 intrinsics and the factor with its intrinsics block
+// (re-integrated) at them, moved by k times a generic offset.
+AuxFixture auxFixture(AuxImuModel model, double td0_i, double td0_j, double k, double rate,
+                      bool intrinsics = false) {
   static const PoseManifold pose;
   static const ceres::SphereManifold<3> sphere;
   const auto trajectory = handheld();
-  const InertialSensor aux = auxSensor(InertialType::kImu, rate);
+  InertialSensor aux = auxSensor(InertialType::kImu, rate);
+  std::vector<double> block;
+  if (intrinsics) {
+    aux.intrinsics = test::tableFourIntrinsics();
+    block = test::intrinsicsBlock(aux.intrinsics);
+    for (int n = 0; n < kImuIntrinsicsSize; ++n) block[n] += 1e-3 * k * std::sin(1.0 + n);
+  }
   const Eigen::Vector3d bg = Eigen::Vector3d(2e-4, -1e-4, 3e-4) * k;
   const Eigen::Vector3d ba = Eigen::Vector3d(3e-3, 2e-3, -1e-3) * k;
   AuxFixture f;
-  f.factor = std::make_unique<AuxImuFactor>(
-      model, preintegrate(aux, trajectory, td0_i, td0_j, bg, ba), td0_i, td0_j,
-      baseMotion(trajectory, kTi), baseMotion(trajectory, kTj));
+  auto pre = preintegrate(aux, trajectory, td0_i, td0_j, bg, ba);
+  if (intrinsics) {
+    f.factor = std::make_unique<AuxImuFactor>(
+        model, pre, td0_i, td0_j, baseMotion(trajectory, kTi), baseMotion(trajectory, kTj),
+        ImuIntrinsicsFrame(), IntrinsicsLinearization::kReintegrate, block.data());
+  } else {
+    f.factor = std::make_unique<AuxImuFactor>(model, pre, td0_i, td0_j,
+                                              baseMotion(trajectory, kTi),
+                                              baseMotion(trajectory, kTj));
+  }
   f.blocks = baseBlocks(trajectory, k);
   for (double t : {kTi, kTj}) {
     std::vector<double> a;
@@ -149,6 +165,10 @@ AuxFixture auxFixture(AuxImuModel model, double td0_i, double td0_j, double k, d
   const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.05, -0.03, 0.0) * k) * kGravity_G;
   f.blocks.push_back({g.x(), g.y(), g.z()});
   f.manifolds = {&pose, nullptr, &pose, nullptr, nullptr, nullptr, &pose, nullptr, &sphere};
+  if (intrinsics) {
+    f.blocks.push_back(block);
+    f.manifolds.push_back(nullptr);
+  }
   return f;
 }
 
@@ -205,16 +225,29 @@ struct GyroFixture {
   std::vector<const ceres::Manifold*> manifolds;
 };
 
-GyroFixture gyroFixture(double td0_i, double td0_j, double k) {
+// `intrinsics`: as for auxFixture, with the Tw of Table 4 (a gyroscope has no Tg).
+GyroFixture gyroFixture(double td0_i, double td0_j, double k, bool intrinsics = false) {
   static const PoseManifold pose;
   static const RotationManifold rotation;
   const auto trajectory = handheld();
-  const InertialSensor gyro = auxSensor(InertialType::kGyroscope, 200.0);
+  InertialSensor gyro = auxSensor(InertialType::kGyroscope, 200.0);
+  std::vector<double> block;
+  if (intrinsics) {
+    gyro.intrinsics.Tw = test::tableFourIntrinsics().Tw;
+    block = test::intrinsicsBlock(gyro.intrinsics);
+    for (int n = 0; n < kImuIntrinsicsSize; ++n) block[n] += 1e-3 * k * std::sin(1.0 + n);
+  }
   const Eigen::Vector3d bg = Eigen::Vector3d(2e-4, -1e-4, 3e-4) * k;
   GyroFixture f;
-  f.factor = std::make_unique<GyroFactor>(
-      preintegrate(gyro, trajectory, td0_i, td0_j, bg, Eigen::Vector3d::Zero()), td0_i, td0_j,
-      baseMotion(trajectory, kTi), baseMotion(trajectory, kTj));
+  auto pre = preintegrate(gyro, trajectory, td0_i, td0_j, bg, Eigen::Vector3d::Zero());
+  if (intrinsics) {
+    f.factor = std::make_unique<GyroFactor>(pre, td0_i, td0_j, baseMotion(trajectory, kTi),
+                                            baseMotion(trajectory, kTj),
+                                            IntrinsicsLinearization::kReintegrate, block.data());
+  } else {
+    f.factor = std::make_unique<GyroFactor>(pre, td0_i, td0_j, baseMotion(trajectory, kTi),
+                                            baseMotion(trajectory, kTj));
+  }
   f.blocks = baseBlocks(trajectory, k);
   f.blocks.push_back({bg.x(), bg.y(), bg.z()});
   f.blocks.push_back({-bg.x(), -bg.y(), -bg.z()});
@@ -223,6 +256,10 @@ GyroFixture gyroFixture(double td0_i, double td0_j, double k) {
   f.blocks.push_back({q.x(), q.y(), q.z(), q.w()});
   f.blocks.push_back({kTrueOffset + 0.001 * k});
   f.manifolds = {&pose, nullptr, &pose, nullptr, nullptr, nullptr, &rotation, nullptr};
+  if (intrinsics) {
+    f.blocks.push_back(block);
+    f.manifolds.push_back(nullptr);
+  }
   return f;
 }
 
@@ -243,6 +280,28 @@ TEST(GyroFactor, JacobiansMatchCentralDifferences) {
   const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
   const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
+}
+
+TEST(AuxImuFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
+  const AuxFixture f = auxFixture(AuxImuModel::kVelocityState, kTrueOffset - 0.002,
+                                  kTrueOffset + 0.001, 1.0, 100.0, true);
+  const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
+  const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
+  EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
+  // At the true intrinsics, as small as without them (ResidualAtTruthIsFarBelowNoise, 500 Hz).
+  const AuxFixture truth = auxFixture(AuxImuModel::kVelocityState, kTrueOffset, kTrueOffset, 0.0,
+                                      500.0, true);
+  EXPECT_LT(maxAbs(test::evaluateResiduals(*truth.factor, truth.blocks)), 0.05);
+}
+
+TEST(GyroFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
+  const GyroFixture f = gyroFixture(kTrueOffset - 0.002, kTrueOffset + 0.001, 1.0, true);
+  const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
+  const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
+  EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
+  // At the true Dw, as small as without it (ResidualAtTruthIsFarBelowNoise).
+  const GyroFixture truth = gyroFixture(kTrueOffset, kTrueOffset, 0.0, true);
+  EXPECT_LT(maxAbs(test::evaluateResiduals(*truth.factor, truth.blocks)), 0.1);
 }
 
 TEST(RotationPriorFactor, ResidualAndJacobian) {

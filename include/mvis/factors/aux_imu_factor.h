@@ -10,7 +10,8 @@
 // base pose through the extrinsic T_A_I (Kalibr's T_i_b: p_A = R_AI p_I + p_AI), Eq. 38-39:
 //   R_G_A,k = R_k' R_AI^T,   p_G_A,k = p_k' - R_G_A,k p_AI
 // With T = tau_j - tau_i, g gravity, and the deltas corrected to the aux biases of state i as in
-// ImuFactor (Eq. 32-34):
+// ImuFactor (Eq. 32-34; with the aux IMU's intrinsics estimated, at x = [b^A_g,i b^A_a,i
+// intrinsics] re-integrated or first order about a fixed point, as ImuFactor):
 //   r_theta = Log(dR(b^A_g,i)^T R_G_A,i^T R_G_A,j)
 //   r_p     = R_G_A,i^T (p_G_A,j - p_G_A,i - v^A_i T - 1/2 g T^2) - dp(b^A_i)
 //   r_v     = R_G_A,i^T (v^A_j - v^A_i - g T) - dv(b^A_i)
@@ -28,7 +29,8 @@
 //     the report's Sec. 6.3 finds on degenerate motion; kept to reproduce it.
 //
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], aux_i [9 or 6],
-// aux_j [9 or 6], extrinsic T_A_I [7], time_offset [1], gravity [3] (state_blocks.h).
+// aux_j [9 or 6], extrinsic T_A_I [7], time_offset [1], gravity [3] (state_blocks.h), and with
+// its intrinsics estimated the aux IMU's intrinsics block [24] (imu_reintegration.h).
 // Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces (tangent
 // lift convention of state_blocks.h).
 #pragma once
@@ -38,6 +40,7 @@
 #include <memory>
 
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/factors/base_motion.h"
 
@@ -52,6 +55,11 @@ class AuxImuFactor final : public ceres::CostFunction {
   AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegration> pre,
                double time_offset0_i, double time_offset0_j, const BaseMotion& base_i,
                const BaseMotion& base_j);
+  // With the intrinsics block as last parameter (`intrinsics0`: its value now), as ImuFactor.
+  AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegration> pre,
+               double time_offset0_i, double time_offset0_j, const BaseMotion& base_i,
+               const BaseMotion& base_j, const ImuIntrinsicsFrame& frame,
+               IntrinsicsLinearization mode, const double* intrinsics0);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -64,13 +72,17 @@ class AuxImuFactor final : public ceres::CostFunction {
 
  private:
   template <typename T>
-  void residual(double const* const* parameters, T* r) const;
+  void residual(double const* const* parameters, const ImuDeltas& d, T* r) const;
 
   AuxImuModel model_;
   std::shared_ptr<const ImuPreintegration> pre_;
   BaseMotion base_i_, base_j_;
   double time_offset0_i_, time_offset0_j_;
   Eigen::Matrix<double, 15, 15> sqrt_information_;
+  bool intrinsics_ = false;
+  IntrinsicsLinearization mode_ = IntrinsicsLinearization::kReintegrate;
+  ImuIntrinsicsFrame frame_;
+  ImuDeltas fixed_;  // kFixed
 };
 
 }  // namespace mvis

@@ -7,14 +7,16 @@
 // the base rotations R_k' are the states' shifted as in base_motion.h.
 // The gyroscope frame {A} follows through the extrinsic rotation R_AI of T_i_b (Eq. 44):
 //   R_G_A,k = R_k' R_AI^T
-// With the delta corrected to the gyroscope bias of state i (Eq. 32):
+// With the delta corrected to the gyroscope bias of state i (Eq. 32; with the gyroscope's Dw
+// estimated, at x = [b^A_g,i Dw] re-integrated or first order about a fixed point, as ImuFactor):
 //   r_theta = Log(dR(b^A_g,i)^T R_G_A,i^T R_G_A,j)
 //   r_bg    = b^A_g,j - b^A_g,i   (the bias random walk)
 // whitened by the rotation and gyroscope-bias rows and columns of the preintegrated covariance.
 //
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], bias_i [3],
 // bias_j [3], extrinsic rotation [4] (the quaternion of T_i_b, RotationManifold),
-// time_offset [1]. A gyroscope's translation does not enter: it is not calibrated (report
+// time_offset [1], and with its intrinsics estimated its intrinsics block [24] (only Dw
+// enters, imu_reintegration.h). A gyroscope's translation does not enter: it is not calibrated (report
 // Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces
 // (tangent lift convention of state_blocks.h).
 #pragma once
@@ -24,6 +26,7 @@
 #include <memory>
 
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/base_motion.h"
 
 namespace mvis {
@@ -35,6 +38,10 @@ class GyroFactor final : public ceres::CostFunction {
   // `base_j`: the base motion at t_i, t_j.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j);
+  // With the intrinsics block as last parameter (`intrinsics0`: its value now), as ImuFactor.
+  GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
+             double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
+             IntrinsicsLinearization mode, const double* intrinsics0);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -43,12 +50,15 @@ class GyroFactor final : public ceres::CostFunction {
 
  private:
   template <typename T>
-  void residual(double const* const* parameters, T* r) const;
+  void residual(double const* const* parameters, const ImuDeltas& d, T* r) const;
 
   std::shared_ptr<const ImuPreintegration> pre_;
   double time_offset0_i_, time_offset0_j_;
   BaseMotion base_i_, base_j_;
   Eigen::Matrix<double, 6, 6> sqrt_information_;
+  bool intrinsics_ = false;
+  IntrinsicsLinearization mode_ = IntrinsicsLinearization::kReintegrate;
+  ImuDeltas fixed_;  // kFixed
 };
 
 }  // namespace mvis

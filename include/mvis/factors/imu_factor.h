@@ -1,42 +1,57 @@
-// Base-IMU preintegration factor between window states i and j (report Eq. 35-36).
+// Base-IMU preintegration factor between window states i and j (report Eq. 35-37).
 //
-// Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], gravity [3]
-// (layouts in mvis/estimator/state_blocks.h). With T = t_j - t_i, g the gravity vector and the
-// deltas of ImuPreintegration corrected to the biases of state i (Eq. 32-34):
-//   r_theta = Log(dR(b_g,i)^T R_i^T R_j)
-//   r_p     = R_i^T (p_j - p_i - v_i T - 1/2 g T^2) - dp(b_i)
-//   r_v     = R_i^T (v_j - v_i - g T) - dv(b_i)
+// Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], gravity [3], and with
+// the base IMU's intrinsics estimated its intrinsics block [24] (layouts in
+// mvis/estimator/state_blocks.h and mvis/estimator/imu_reintegration.h). With T = t_j - t_i, g
+// the gravity vector and the deltas dR, dp, dv at x = [b_g,i b_a,i intrinsics]:
+//   r_theta = Log(dR(x)^T R_i^T R_j)
+//   r_p     = R_i^T (p_j - p_i - v_i T - 1/2 g T^2) - dp(x)
+//   r_v     = R_i^T (v_j - v_i - g T) - dv(x)
 //   r_bg    = b_g,j - b_g,i
 //   r_ba    = b_a,j - b_a,i
 // whitened by L with L^T L = P^-1, P the preintegrated covariance. The bias rows carry the
 // random walks of the two biases over T, so this factor is also the bias random-walk factor of
 // the base IMU.
 //
+// The deltas at x come from an ImuDeltas (integrated at x0, Jacobian J = d delta / dx):
+//   dR(x) = dR Exp(phi), phi = J_theta (x - x0);  dp(x) = dp + J_p (x - x0);  dv likewise.
+// Without intrinsics x0 is the preintegration's bias linearization point (Eq. 32-34, bias
+// correction); with intrinsics and IntrinsicsLinearization::kReintegrate the readings are
+// re-integrated at x on every evaluation (x0 = x, phi = 0; Sec. 2.2), with kFixed x0 is where
+// the factor was made.
+//
 // Jacobians in the tangent spaces (right perturbation R Exp(dtheta), p + dp), with
-// E = dR(b_g,i)^T R_i^T R_j, e = r_theta, phi = J_R_bg (b_g,i - b_g0):
+// E = dR(x)^T R_i^T R_j, e = r_theta:
 //   d r_theta / d theta_i = -Jr^-1(e) R_j^T R_i        d r_theta / d theta_j = Jr^-1(e)
-//   d r_theta / d b_g,i   = -Jr^-1(e) E^T Jr(phi) J_R_bg
+//   d r_theta / d x       = -Jr^-1(e) E^T Jr(phi) J_theta
 //   d r_p / d theta_i = [R_i^T (p_j - p_i - v_i T - 1/2 g T^2)]x
 //   d r_p / d p_i = -R_i^T,  d r_p / d p_j = R_i^T,  d r_p / d v_i = -R_i^T T,
-//   d r_p / d b_i = -J_p_b,  d r_p / d g = -1/2 R_i^T T^2
+//   d r_p / d x = -J_p,  d r_p / d g = -1/2 R_i^T T^2
 //   d r_v / d theta_i = [R_i^T (v_j - v_i - g T)]x
-//   d r_v / d v_i = -R_i^T,  d r_v / d v_j = R_i^T,  d r_v / d b_i = -J_v_b,  d r_v / d g = -R_i^T
-//   T
+//   d r_v / d v_i = -R_i^T,  d r_v / d v_j = R_i^T,  d r_v / d x = -J_v,  d r_v / d g = -R_i^T T
+// (x's bias part belongs to speed_bias_i, the rest to the intrinsics block).
 #pragma once
 
-#include <ceres/sized_cost_function.h>
+#include <ceres/cost_function.h>
 
 #include <memory>
 
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/imu_reintegration.h"
 
 namespace mvis {
 
-class ImuFactor final : public ceres::SizedCostFunction<15, 7, 9, 7, 9, 3> {
+class ImuFactor final : public ceres::CostFunction {
  public:
-  // The preintegration is shared, so re-integrating it (new bias linearization point) updates
-  // the factor.
+  // Readings taken as calibrated. The preintegration is shared, so re-integrating it (new bias
+  // linearization point) updates the factor.
   explicit ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration);
+  // With the intrinsics block as sixth parameter; `intrinsics0`: its value now (the
+  // linearization point of kFixed). The preintegration gives the raw readings, the covariance
+  // and (kFixed) the bias linearization point.
+  ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration,
+            const ImuIntrinsicsFrame& frame, IntrinsicsLinearization mode,
+            const double* intrinsics0);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -45,6 +60,10 @@ class ImuFactor final : public ceres::SizedCostFunction<15, 7, 9, 7, 9, 3> {
 
  private:
   std::shared_ptr<const ImuPreintegration> preintegration_;
+  bool intrinsics_ = false;
+  ImuIntrinsicsFrame frame_;
+  IntrinsicsLinearization mode_ = IntrinsicsLinearization::kReintegrate;
+  ImuDeltas fixed_;  // kFixed
 };
 
 }  // namespace mvis

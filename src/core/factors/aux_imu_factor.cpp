@@ -1,6 +1,7 @@
 #include "mvis/factors/aux_imu_factor.h"
 
 #include "base_motion_shift.h"
+#include "delta_correction.h"
 #include "mvis/estimator/state_blocks.h"
 #include "tangent_jet.h"
 #include "whitening.h"
@@ -13,22 +14,25 @@ using tangent_jet::Vec3;
 
 // Jet directions: [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20,
 // speed_bias_j 21-29, aux_i 30-38 (or 30-35), aux_j 39-47 (or 36-41), [dtheta_e, dp_e] 48-53,
-// t_d 54, gravity 55-57.
+// t_d 54, gravity 55-57, and the intrinsics 58-81 when they are estimated.
 constexpr int kDim = 58;
 using Jet = ceres::Jet<double, kDim>;
-constexpr int kExtrinsicJet = 48, kTimeOffsetJet = 54, kGravityJet = 55;
+using IntrinsicsJet = ceres::Jet<double, kDim + kImuIntrinsicsSize>;
+constexpr int kExtrinsicJet = 48, kTimeOffsetJet = 54, kGravityJet = 55, kIntrinsicsJet = 58;
 
-std::vector<tangent_jet::BlockLayout> layoutOf(AuxImuModel model) {
+std::vector<tangent_jet::BlockLayout> layoutOf(AuxImuModel model, bool intrinsics) {
   const int a = AuxImuFactor::auxBlockSize(model);
-  return {{0, 6, 7},
-          {6, 9, 9},
-          {15, 6, 7},
-          {21, 9, 9},
-          {30, a, a},
-          {30 + a, a, a},
-          {kExtrinsicJet, 6, 7},
-          {kTimeOffsetJet, 1, 1},
-          {kGravityJet, 3, 3}};
+  std::vector<tangent_jet::BlockLayout> layout = {{0, 6, 7},
+                                                  {6, 9, 9},
+                                                  {15, 6, 7},
+                                                  {21, 9, 9},
+                                                  {30, a, a},
+                                                  {30 + a, a, a},
+                                                  {kExtrinsicJet, 6, 7},
+                                                  {kTimeOffsetJet, 1, 1},
+                                                  {kGravityJet, 3, 3}};
+  if (intrinsics) layout.push_back({kIntrinsicsJet, kImuIntrinsicsSize, kImuIntrinsicsSize});
+  return layout;
 }
 
 }  // namespace
@@ -44,12 +48,29 @@ AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegr
       time_offset0_j_(time_offset0_j) {
   set_num_residuals(15);
   auto* sizes = mutable_parameter_block_sizes();
-  for (const auto& l : layoutOf(model_)) sizes->push_back(l.ambient);
+  for (const auto& l : layoutOf(model_, false)) sizes->push_back(l.ambient);
   sqrt_information_ = sqrtInformation<15>(pre_->covariance());
 }
 
+AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegration> pre,
+                           double time_offset0_i, double time_offset0_j, const BaseMotion& base_i,
+                           const BaseMotion& base_j, const ImuIntrinsicsFrame& frame,
+                           IntrinsicsLinearization mode, const double* intrinsics0)
+    : AuxImuFactor(model, std::move(pre), time_offset0_i, time_offset0_j, base_i, base_j) {
+  intrinsics_ = true;
+  mode_ = mode;
+  frame_ = frame;
+  mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
+  if (mode_ == IntrinsicsLinearization::kFixed) {
+    fixed_ = reintegrate(
+        pre_->samples(),
+        deltaVariables(pre_->biasGyro().data(), pre_->biasAccel().data(), intrinsics0), frame_,
+        true);
+  }
+}
+
 template <typename T>
-void AuxImuFactor::residual(double const* const* parameters, T* out) const {
+void AuxImuFactor::residual(double const* const* parameters, const ImuDeltas& d, T* out) const {
   using tangent_jet::perturbRotation;
   using tangent_jet::perturbScalar;
   using tangent_jet::perturbVector;
@@ -102,20 +123,18 @@ void AuxImuFactor::residual(double const* const* parameters, T* out) const {
            Rs_j * tangent_jet::hatT<T>(w_j) * p_IA;
   }
 
-  const Vec3<T> dbg = abg_i - pre.biasGyro().cast<T>();
-  const Vec3<T> dba = aba_i - pre.biasAccel().cast<T>();
-  using P = ImuPreintegration;
-  const auto& J = pre.jacobian();
-  const Mat3<T> dR =
-      pre.deltaR().toRotationMatrix().cast<T>() *
-      tangent_jet::expT<T>(J.block<3, 3>(P::kRotation, P::kBiasGyro).cast<T>() * dbg);
-  const Vec3<T> dp = pre.deltaP().cast<T>() +
-                     J.block<3, 3>(P::kPosition, P::kBiasGyro).cast<T>() * dbg +
-                     J.block<3, 3>(P::kPosition, P::kBiasAccel).cast<T>() * dba;
-  const Vec3<T> dv = pre.deltaV().cast<T>() +
-                     J.block<3, 3>(P::kVelocity, P::kBiasGyro).cast<T>() * dbg +
-                     J.block<3, 3>(P::kVelocity, P::kBiasAccel).cast<T>() * dba;
+  Eigen::Matrix<T, kDeltaVariables, 1> x;
+  x.template head<3>() = abg_i;
+  x.template segment<3>(3) = aba_i;
+  for (int k = 0; k < kImuIntrinsicsSize; ++k) {
+    x[6 + k] = intrinsics_ ? tangent_jet::perturbScalarIfPresent<T>(parameters[9][k], kIntrinsicsJet + k) : T(d.x0[6 + k]);
+  }
+  const CorrectedDeltas<T> deltas = correctDeltas<T>(d, x);
+  const Mat3<T>& dR = deltas.dR;
+  const Vec3<T>& dp = deltas.dp;
+  const Vec3<T>& dv = deltas.dv;
   const T dT(pre.duration());
+  using P = ImuPreintegration;
 
   Eigen::Matrix<T, 15, 1> r;
   r.template segment<3>(P::kRotation) =
@@ -131,13 +150,32 @@ void AuxImuFactor::residual(double const* const* parameters, T* out) const {
 
 bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
                             double** jacobians) const {
+  ImuDeltas local;
+  const ImuDeltas* d = &fixed_;
+  if (!intrinsics_) {
+    local = deltasOf(*pre_);
+    d = &local;
+  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
+    const int bias_at = model_ == AuxImuModel::kVelocityState ? 3 : 0;
+    local = reintegrate(
+        pre_->samples(),
+        deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3, parameters[9]),
+        frame_, jacobians != nullptr);
+    d = &local;
+  }
   if (jacobians == nullptr) {
-    residual<double>(parameters, residuals);
+    residual<double>(parameters, *d, residuals);
+    return true;
+  }
+  if (intrinsics_) {
+    IntrinsicsJet r[15];
+    residual<IntrinsicsJet>(parameters, *d, r);
+    tangent_jet::writeJacobians(r, 15, layoutOf(model_, true), residuals, jacobians);
     return true;
   }
   Jet r[15];
-  residual<Jet>(parameters, r);
-  tangent_jet::writeJacobians(r, 15, layoutOf(model_), residuals, jacobians);
+  residual<Jet>(parameters, *d, r);
+  tangent_jet::writeJacobians(r, 15, layoutOf(model_, false), residuals, jacobians);
   return true;
 }
 

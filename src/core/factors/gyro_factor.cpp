@@ -1,6 +1,7 @@
 #include "mvis/factors/gyro_factor.h"
 
 #include "base_motion_shift.h"
+#include "delta_correction.h"
 #include "mvis/estimator/state_blocks.h"
 #include "tangent_jet.h"
 #include "whitening.h"
@@ -12,11 +13,24 @@ using tangent_jet::Mat3;
 using tangent_jet::Vec3;
 
 // Jet directions: [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20,
-// speed_bias_j 21-29, bias_i 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39.
-constexpr int kDim = 40;
+// speed_bias_j 21-29, bias_i 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39, and Dw 40-45
+// when the intrinsics are estimated (the rest of that block does not enter).
+constexpr int kDim = 40, kDwJet = 40;
 using Jet = ceres::Jet<double, kDim>;
+using IntrinsicsJet = ceres::Jet<double, kDim + 6>;
 const std::vector<tangent_jet::BlockLayout> kLayout = {
     {0, 6, 7}, {6, 9, 9}, {15, 6, 7}, {21, 9, 9}, {30, 3, 3}, {33, 3, 3}, {36, 3, 4}, {39, 1, 1}};
+
+// Writes the Dw columns of the intrinsics block's Jacobian (the rest zero).
+void writeDwJacobian(const IntrinsicsJet* r, double* jacobian) {
+  for (int i = 0; i < 6; ++i) {
+    double* row = jacobian + kImuIntrinsicsSize * i;
+    std::fill(row, row + kImuIntrinsicsSize, 0.0);
+    for (int k = 0; k < 6; ++k) row[ImuIntrinsicsLayout::kDw + k] = r[i].v[kDwJet + k];
+  }
+}
+
+const ImuIntrinsicsFrame kGyroFrame{Eigen::Matrix3d::Identity(), true};
 
 }  // namespace
 
@@ -40,12 +54,25 @@ GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time
   sqrt_information_ = sqrtInformation<6>(cov);
 }
 
+GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
+                       double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
+                       IntrinsicsLinearization mode, const double* intrinsics0)
+    : GyroFactor(std::move(pre), time_offset0_i, time_offset0_j, base_i, base_j) {
+  intrinsics_ = true;
+  mode_ = mode;
+  mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
+  if (mode_ == IntrinsicsLinearization::kFixed) {
+    fixed_ = reintegrate(pre_->samples(),
+                         deltaVariables(pre_->biasGyro().data(), nullptr, intrinsics0), kGyroFrame,
+                         true);
+  }
+}
+
 template <typename T>
-void GyroFactor::residual(double const* const* parameters, T* out) const {
+void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T* out) const {
   using tangent_jet::perturbRotation;
   using tangent_jet::perturbScalar;
   using tangent_jet::perturbVector;
-  const ImuPreintegration& pre = *pre_;
   const Mat3<T> R_i = perturbRotation<T>(poseRotation(parameters[0]), 0);
   const Vec3<T> bg_i = perturbVector<T>(parameters[1] + 3, 9);
   const Mat3<T> R_j = perturbRotation<T>(poseRotation(parameters[2]), 15);
@@ -62,11 +89,14 @@ void GyroFactor::residual(double const* const* parameters, T* out) const {
   shiftBasePose<T>(base_j_, R_j, unused, unused, bg_j, unused, unused, delta_j, &Rs_j, nullptr);
   const Mat3<T> RA_i = Rs_i * R_AI.transpose();
   const Mat3<T> RA_j = Rs_j * R_AI.transpose();
-  using P = ImuPreintegration;
-  const Vec3<T> dbg = abg_i - pre.biasGyro().cast<T>();
-  const Mat3<T> dR =
-      pre.deltaR().toRotationMatrix().cast<T>() *
-      tangent_jet::expT<T>(pre.jacobian().block<3, 3>(P::kRotation, P::kBiasGyro).cast<T>() * dbg);
+  Eigen::Matrix<T, kDeltaVariables, 1> x;
+  for (int k = 0; k < kDeltaVariables; ++k) x[k] = T(d.x0[k]);
+  x.template head<3>() = abg_i;
+  for (int k = 0; intrinsics_ && k < 6; ++k) {
+    x[6 + ImuIntrinsicsLayout::kDw + k] =
+        tangent_jet::perturbScalarIfPresent<T>(parameters[8][ImuIntrinsicsLayout::kDw + k], kDwJet + k);
+  }
+  const Mat3<T> dR = correctDeltas<T>(d, x).dR;
   Eigen::Matrix<T, 6, 1> r;
   r.template head<3>() = tangent_jet::logT<T>(Mat3<T>(dR.transpose() * RA_i.transpose() * RA_j));
   r.template tail<3>() = abg_j - abg_i;
@@ -75,12 +105,29 @@ void GyroFactor::residual(double const* const* parameters, T* out) const {
 
 bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
                           double** jacobians) const {
+  ImuDeltas local;
+  const ImuDeltas* d = &fixed_;
+  if (!intrinsics_) {
+    local = deltasOf(*pre_);
+    d = &local;
+  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
+    local = reintegrate(pre_->samples(), deltaVariables(parameters[4], nullptr, parameters[8]),
+                        kGyroFrame, jacobians != nullptr);
+    d = &local;
+  }
   if (jacobians == nullptr) {
-    residual<double>(parameters, residuals);
+    residual<double>(parameters, *d, residuals);
+    return true;
+  }
+  if (intrinsics_) {
+    IntrinsicsJet r[6];
+    residual<IntrinsicsJet>(parameters, *d, r);
+    tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
+    if (jacobians[8] != nullptr) writeDwJacobian(r, jacobians[8]);
     return true;
   }
   Jet r[6];
-  residual<Jet>(parameters, r);
+  residual<Jet>(parameters, *d, r);
   tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
   return true;
 }

@@ -7,7 +7,27 @@
 namespace mvis {
 
 ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration)
-    : preintegration_(std::move(preintegration)) {}
+    : preintegration_(std::move(preintegration)) {
+  set_num_residuals(15);
+  *mutable_parameter_block_sizes() = {kPoseSize, kSpeedBiasSize, kPoseSize, kSpeedBiasSize,
+                                      kGravitySize};
+}
+
+ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration,
+                     const ImuIntrinsicsFrame& frame, IntrinsicsLinearization mode,
+                     const double* intrinsics0)
+    : ImuFactor(std::move(preintegration)) {
+  intrinsics_ = true;
+  frame_ = frame;
+  mode_ = mode;
+  mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
+  if (mode_ == IntrinsicsLinearization::kFixed) {
+    const ImuPreintegration& pre = *preintegration_;
+    fixed_ = reintegrate(pre.samples(),
+                         deltaVariables(pre.biasGyro().data(), pre.biasAccel().data(), intrinsics0),
+                         frame_, true);
+  }
+}
 
 bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
                          double** jacobians) const {
@@ -27,11 +47,26 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   const Vector3 g(parameters[4]);
   const double T = pre.duration();
 
+  // The deltas at x = [b_g,i b_a,i intrinsics].
+  const ImuDeltas::Vector30d x =
+      deltaVariables(parameters[1] + 3, parameters[1] + 6, intrinsics_ ? parameters[5] : nullptr);
+  ImuDeltas local;
+  const ImuDeltas* d = &fixed_;
+  if (!intrinsics_) {
+    local = deltasOf(pre);
+    d = &local;
+  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
+    local = reintegrate(pre.samples(), x, frame_, jacobians != nullptr);
+    d = &local;
+  }
+  const Eigen::Matrix<double, 9, 1> lin = d->J * (x - d->x0);
+  const Vector3 phi = lin.head<3>();
+  const Matrix3 dR = d->dR * lie::expSO3(phi);
+
   const Matrix3 R_i = q_i.toRotationMatrix();
   const Matrix3 R_j = q_j.toRotationMatrix();
   const Matrix3 Rt_i = R_i.transpose();
-  const Eigen::Quaterniond dR = pre.correctedDeltaR(bg_i);
-  const Matrix3 E = dR.toRotationMatrix().transpose() * Rt_i * R_j;
+  const Matrix3 E = dR.transpose() * Rt_i * R_j;
   const Vector3 e = lie::logSO3(E);
   const Vector3 dp_world = p_j - p_i - v_i * T - 0.5 * g * T * T;
   const Vector3 dv_world = v_j - v_i - g * T;
@@ -40,8 +75,8 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
 
   Eigen::Matrix<double, 15, 1> r;
   r.segment<3>(O_R) = e;
-  r.segment<3>(O_P) = a_p - pre.correctedDeltaP(bg_i, ba_i);
-  r.segment<3>(O_V) = a_v - pre.correctedDeltaV(bg_i, ba_i);
+  r.segment<3>(O_P) = a_p - (d->dp + lin.segment<3>(3));
+  r.segment<3>(O_V) = a_v - (d->dv + lin.segment<3>(6));
   r.segment<3>(O_BG) = bg_j - bg_i;
   r.segment<3>(O_BA) = ba_j - ba_i;
 
@@ -50,9 +85,11 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = sqrt_info * r;
   if (jacobians == nullptr) return true;
 
-  const auto& J = pre.jacobian();
   const Matrix3 Jr_inv_e = lie::rightJacobianInvSO3(e);
-  const Vector3 phi = J.block<3, 3>(O_R, O_BG) * (bg_i - pre.biasGyro());
+  // The deltas' rows of d r / d x (bias columns 0-5, intrinsics 6-29).
+  Eigen::Matrix<double, 9, kDeltaVariables> Dx;
+  Dx.topRows<3>() = -Jr_inv_e * E.transpose() * lie::rightJacobianSO3(phi) * d->J.topRows<3>();
+  Dx.bottomRows<6>() = -d->J.bottomRows<6>();
 
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 7, Eigen::RowMajor>> out(jacobians[0]);
@@ -67,14 +104,9 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   if (jacobians[1] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 9, Eigen::RowMajor>> out(jacobians[1]);
     Eigen::Matrix<double, 15, 9> D = Eigen::Matrix<double, 15, 9>::Zero();
-    D.block<3, 3>(O_R, 3) =
-        -Jr_inv_e * E.transpose() * lie::rightJacobianSO3(phi) * J.block<3, 3>(O_R, O_BG);
+    D.block<9, 6>(O_R, 3) = Dx.leftCols<6>();
     D.block<3, 3>(O_P, 0) = -Rt_i * T;
-    D.block<3, 3>(O_P, 3) = -J.block<3, 3>(O_P, O_BG);
-    D.block<3, 3>(O_P, 6) = -J.block<3, 3>(O_P, O_BA);
     D.block<3, 3>(O_V, 0) = -Rt_i;
-    D.block<3, 3>(O_V, 3) = -J.block<3, 3>(O_V, O_BG);
-    D.block<3, 3>(O_V, 6) = -J.block<3, 3>(O_V, O_BA);
     D.block<3, 3>(O_BG, 3) = -Matrix3::Identity();
     D.block<3, 3>(O_BA, 6) = -Matrix3::Identity();
     out = sqrt_info * D;
@@ -100,6 +132,13 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
     Eigen::Matrix<double, 15, 3> D = Eigen::Matrix<double, 15, 3>::Zero();
     D.block<3, 3>(O_P, 0) = -0.5 * Rt_i * T * T;
     D.block<3, 3>(O_V, 0) = -Rt_i * T;
+    out = sqrt_info * D;
+  }
+  if (intrinsics_ && jacobians[5] != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 15, kImuIntrinsicsSize, Eigen::RowMajor>> out(jacobians[5]);
+    Eigen::Matrix<double, 15, kImuIntrinsicsSize> D =
+        Eigen::Matrix<double, 15, kImuIntrinsicsSize>::Zero();
+    D.topRows<9>() = Dx.rightCols<kImuIntrinsicsSize>();
     out = sqrt_info * D;
   }
   return true;

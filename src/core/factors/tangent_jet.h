@@ -81,6 +81,17 @@ T perturbScalar(double x, int index) {
   }
 }
 
+// As perturbScalar, but a direction the jet type does not have (a factor's optional block
+// while it is differentiated without it) leaves x plain.
+template <typename T>
+T perturbScalarIfPresent(double x, int index) {
+  if constexpr (std::is_same_v<T, double>) {
+    return x;
+  } else {
+    return index < T::DIMENSION ? T(x, index) : T(x);
+  }
+}
+
 // Where a parameter block's tangent directions sit in the jet, how many there are, and the
 // block's ambient size.
 struct BlockLayout {

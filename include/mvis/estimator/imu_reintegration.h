@@ -1,0 +1,83 @@
+// IMU intrinsics as estimator states, and the re-integration of raw readings with them (report
+// Eq. 1-4 and Sec. 2.2).
+//
+// Intrinsics block of one inertial sensor (24 doubles, kImuIntrinsicsSize):
+//   [0..5]   Dw = Tw^-1, upper triangular, column-wise: d11 d12 d22 d13 d23 d33
+//   [6..11]  Da = Ta^-1, the same
+//   [12..20] Tg, row-major [rad/s per m/s^2]
+//   [21..23] theta [rad]: R_ACCtoIMU = R0 Exp(theta), R0 = R_IMUtoACC^T of the configuration
+// so that a reading (w_m, a_m) with biases (b_g, b_a) corrects to (report Eq. 3-4)
+//   a = R_ACCtoIMU Da (a_m - b_a),   w = Dw (w_m - b_g - Tg a).
+// A gyroscope has no accelerometer: w = Dw (w_m - b_g); the rest of its block is unused.
+// Identity intrinsics are Dw = Da = I, Tg = 0, theta = 0.
+//
+// Re-integration: the deltas dR, dp, dv of ImuPreintegration (same midpoint scheme) computed from
+// the raw readings at given biases and intrinsics, x = [b_g(3) b_a(3) intrinsics(24)]
+// (kDeltaVariables), with their exact derivatives in x by forward-mode automatic
+// differentiation: J (9 x 30), rows [dtheta; dp; dv] with dR(x + d) = dR(x) Exp(J_theta d) to
+// first order. A factor evaluated at x re-integrates there (no first-order bias correction, the
+// report's remedy for the local minimum of a fixed intrinsics linearization); the same struct
+// also serves first-order correction about a fixed x0 (correct()), which is what preintegration
+// with fixed linearization does.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+
+constexpr int kImuIntrinsicsSize = 24;
+constexpr int kDeltaVariables = 6 + kImuIntrinsicsSize;
+
+// Offsets inside the intrinsics block.
+struct ImuIntrinsicsLayout {
+  static constexpr int kDw = 0, kDa = 6, kTg = 12, kAccRotation = 21;
+};
+
+// Writes `in` as a block relative to the rotation R0 = in.R_IMUtoACC^T (theta = 0).
+void intrinsicsToBlock(const ImuIntrinsics& in, double* block);
+// The rpng intrinsics of a block whose rotation is relative to R0 (R_ACCtoIMU at theta = 0).
+ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0);
+// The upper-triangular matrix of 6 column-wise entries.
+Eigen::Matrix3d upperTriangular(const double* d);
+
+// How a factor with an intrinsics block gets its deltas.
+enum class IntrinsicsLinearization {
+  kReintegrate,  // re-integrated at every evaluation (report Sec. 2.2; the default)
+  kFixed,        // first order about the values when the factor was made (Xiao et al.; it
+                 // drifts into a local minimum, kept to show it)
+};
+
+// What a sensor's readings are corrected with, besides the block: R0 and whether it is a
+// gyroscope.
+struct ImuIntrinsicsFrame {
+  Eigen::Matrix3d R0 = Eigen::Matrix3d::Identity();  // R_ACCtoIMU at theta = 0
+  bool gyro_only = false;
+};
+
+struct ImuDeltas {
+  using Vector30d = Eigen::Matrix<double, kDeltaVariables, 1>;
+  Vector30d x0 = Vector30d::Zero();  // where they were integrated
+  Eigen::Matrix3d dR = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d dp = Eigen::Vector3d::Zero(), dv = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 9, kDeltaVariables> J = Eigen::Matrix<double, 9, kDeltaVariables>::Zero();
+  double duration = 0.0;  // [s]
+};
+
+// x = [b_g b_a intrinsics] from its parts (intrinsics null: identity).
+ImuDeltas::Vector30d deltaVariables(const double* bias_gyro, const double* bias_accel,
+                                    const double* intrinsics);
+
+// Integrates the readings at x; with `jacobians`, J holds the exact derivatives (else zero).
+ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDeltas::Vector30d& x,
+                      const ImuIntrinsicsFrame& frame, bool jacobians);
+
+// A preintegration's deltas and first-order bias Jacobians at its bias linearization point (the
+// intrinsics columns zero: its readings are taken as calibrated).
+ImuDeltas deltasOf(const ImuPreintegration& pre);
+
+}  // namespace mvis

@@ -1,0 +1,177 @@
+#include "mvis/estimator/imu_reintegration.h"
+
+#include <ceres/jet.h>
+#include <ceres/rotation.h>
+
+#include <type_traits>
+
+#include "mvis/common/lie.h"
+
+namespace mvis {
+namespace {
+
+using L = ImuIntrinsicsLayout;
+template <typename T>
+using Mat3 = Eigen::Matrix<T, 3, 3>;
+template <typename T>
+using Vec3 = Eigen::Matrix<T, 3, 1>;
+
+// Column-wise upper-triangular index of element (r, c), r <= c.
+constexpr int upperIndex(int r, int c) { return c * (c + 1) / 2 + r; }
+
+template <typename T>
+Mat3<T> upperT(const T* d) {
+  Mat3<T> M = Mat3<T>::Zero();
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r <= c; ++r) M(r, c) = d[upperIndex(r, c)];
+  }
+  return M;
+}
+
+template <typename T>
+Mat3<T> expT(const Vec3<T>& w) {
+  Mat3<T> R;
+  ceres::AngleAxisToRotationMatrix(w.data(), R.data());
+  return R;
+}
+
+// The midpoint scheme of ImuPreintegration::integrate on readings corrected at x.
+template <typename T>
+void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T, 30, 1>& x,
+               const ImuIntrinsicsFrame& frame, Mat3<T>* dR, Vec3<T>* dp, Vec3<T>* dv) {
+  const Vec3<T> bg = x.template head<3>();
+  const Vec3<T> ba = x.template segment<3>(3);
+  const T* in = x.data() + 6;
+  const Mat3<T> Dw = upperT<T>(in + L::kDw);
+  Mat3<T> M = Mat3<T>::Zero(), Tg = Mat3<T>::Zero();
+  if (!frame.gyro_only) {
+    const Vec3<T> theta(in[L::kAccRotation], in[L::kAccRotation + 1], in[L::kAccRotation + 2]);
+    M = frame.R0.cast<T>() * expT<T>(theta) * upperT<T>(in + L::kDa);
+    for (int k = 0; k < 9; ++k) Tg(k / 3, k % 3) = in[L::kTg + k];
+  }
+  const auto correct = [&](const ImuMeasurement& m, Vec3<T>* w, Vec3<T>* a) {
+    if (frame.gyro_only) {
+      *a = Vec3<T>::Zero();
+      *w = Dw * (m.gyro.cast<T>() - bg);
+      return;
+    }
+    *a = M * (m.accel.cast<T>() - ba);
+    *w = Dw * (m.gyro.cast<T>() - bg - Tg * *a);
+  };
+  dR->setIdentity();
+  dp->setZero();
+  dv->setZero();
+  if (samples.empty()) return;
+  Vec3<T> w0, a0, w1, a1;
+  correct(samples.front(), &w0, &a0);
+  for (std::size_t k = 1; k < samples.size(); ++k) {
+    correct(samples[k], &w1, &a1);
+    const double dt = toSeconds(samples[k].stamp_ns - samples[k - 1].stamp_ns);
+    if (dt > 0.0) {
+      const Vec3<T> phi = (w0 + w1) * T(0.5 * dt);
+      const Mat3<T> R1 = *dR * expT<T>(phi);
+      const Vec3<T> a = (*dR * a0 + R1 * a1) * T(0.5);
+      *dp += *dv * T(dt) + a * T(0.5 * dt * dt);
+      *dv += a * T(dt);
+      *dR = R1;
+    }
+    w0 = w1;
+    a0 = a1;
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix3d upperTriangular(const double* d) { return upperT<double>(d); }
+
+void intrinsicsToBlock(const ImuIntrinsics& in, double* block) {
+  const Eigen::Matrix3d Dw = in.Tw.inverse(), Da = in.Ta.inverse();
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r <= c; ++r) {
+      block[L::kDw + upperIndex(r, c)] = Dw(r, c);
+      block[L::kDa + upperIndex(r, c)] = Da(r, c);
+    }
+  }
+  for (int k = 0; k < 9; ++k) block[L::kTg + k] = in.Tg(k / 3, k % 3);
+  for (int k = 0; k < 3; ++k) block[L::kAccRotation + k] = 0.0;
+}
+
+ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0) {
+  ImuIntrinsics out;
+  out.Tw = upperTriangular(block + L::kDw).inverse();
+  out.Ta = upperTriangular(block + L::kDa).inverse();
+  // Exact inverses of upper-triangular matrices are upper triangular; clear the rounding.
+  out.Tw.triangularView<Eigen::StrictlyLower>().setZero();
+  out.Ta.triangularView<Eigen::StrictlyLower>().setZero();
+  for (int k = 0; k < 9; ++k) out.Tg(k / 3, k % 3) = block[L::kTg + k];
+  const Eigen::Matrix3d R_acc_to_imu =
+      R0 * lie::expSO3(Eigen::Vector3d(block + L::kAccRotation));
+  out.R_IMUtoACC = R_acc_to_imu.transpose();
+  return out;
+}
+
+ImuDeltas::Vector30d deltaVariables(const double* bias_gyro, const double* bias_accel,
+                                    const double* intrinsics) {
+  ImuDeltas::Vector30d x = ImuDeltas::Vector30d::Zero();
+  x.head<3>() = Eigen::Vector3d(bias_gyro);
+  if (bias_accel != nullptr) x.segment<3>(3) = Eigen::Vector3d(bias_accel);
+  if (intrinsics != nullptr) {
+    x.tail<kImuIntrinsicsSize>() =
+        Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(intrinsics);
+  } else {
+    intrinsicsToBlock(ImuIntrinsics(), x.data() + 6);
+  }
+  return x;
+}
+
+ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDeltas::Vector30d& x,
+                      const ImuIntrinsicsFrame& frame, bool jacobians) {
+  ImuDeltas out;
+  out.x0 = x;
+  if (!samples.empty()) out.duration = toSeconds(samples.back().stamp_ns - samples.front().stamp_ns);
+  if (!jacobians) {
+    integrate<double>(samples, x, frame, &out.dR, &out.dp, &out.dv);
+    return out;
+  }
+  using Jet = ceres::Jet<double, kDeltaVariables>;
+  Eigen::Matrix<Jet, kDeltaVariables, 1> xj;
+  for (int i = 0; i < kDeltaVariables; ++i) xj[i] = Jet(x[i], i);
+  Mat3<Jet> dR;
+  Vec3<Jet> dp, dv;
+  integrate<Jet>(samples, xj, frame, &dR, &dp, &dv);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.dR(r, c) = dR(r, c).a;
+    out.dp[r] = dp[r].a;
+    out.dv[r] = dv[r].a;
+    out.J.row(3 + r) = dp[r].v.transpose();
+    out.J.row(6 + r) = dv[r].v.transpose();
+  }
+  // Right-tangent derivative of the rotation: dR^T d(dR)/dx_k = hat(J_theta column k).
+  for (int k = 0; k < kDeltaVariables; ++k) {
+    Eigen::Matrix3d D;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) D(r, c) = dR(r, c).v[k];
+    }
+    out.J.block<3, 1>(0, k) = lie::vee(out.dR.transpose() * D);
+  }
+  return out;
+}
+
+ImuDeltas deltasOf(const ImuPreintegration& pre) {
+  using P = ImuPreintegration;
+  ImuDeltas out;
+  out.x0 = deltaVariables(pre.biasGyro().data(), pre.biasAccel().data(), nullptr);
+  out.dR = pre.deltaR().toRotationMatrix();
+  out.dp = pre.deltaP();
+  out.dv = pre.deltaV();
+  out.duration = pre.duration();
+  const auto& J = pre.jacobian();
+  for (int row = 0; row < 3; ++row) {
+    out.J.row(row).head<6>() = J.row(P::kRotation + row).segment<6>(P::kBiasGyro);
+    out.J.row(3 + row).head<6>() = J.row(P::kPosition + row).segment<6>(P::kBiasGyro);
+    out.J.row(6 + row).head<6>() = J.row(P::kVelocity + row).segment<6>(P::kBiasGyro);
+  }
+  return out;
+}
+
+}  // namespace mvis

@@ -1,0 +1,32 @@
+// Deltas of ImuDeltas (mvis/estimator/imu_reintegration.h) at other biases and intrinsics, for
+// the factors that differentiate with ceres::Jet. Private to src/core/factors.
+//
+// To first order about the integration point x0 (exact value and derivatives at x = x0):
+//   dR(x) = dR Exp(J_theta (x - x0)),  dp(x) = dp + J_p (x - x0),  dv(x) = dv + J_v (x - x0).
+#pragma once
+
+#include "mvis/estimator/imu_reintegration.h"
+#include "tangent_jet.h"
+
+namespace mvis {
+
+template <typename T>
+struct CorrectedDeltas {
+  tangent_jet::Mat3<T> dR;
+  tangent_jet::Vec3<T> dp, dv;
+};
+
+// x: the 30 variables [b_g b_a intrinsics] as T.
+template <typename T>
+CorrectedDeltas<T> correctDeltas(const ImuDeltas& d, const Eigen::Matrix<T, kDeltaVariables, 1>& x) {
+  Eigen::Matrix<T, kDeltaVariables, 1> dx = x;
+  for (int i = 0; i < kDeltaVariables; ++i) dx[i] -= T(d.x0[i]);
+  const Eigen::Matrix<T, 9, 1> lin = d.J.cast<T>() * dx;
+  CorrectedDeltas<T> out;
+  out.dR = d.dR.cast<T>() * tangent_jet::expT<T>(lin.template head<3>());
+  out.dp = d.dp.cast<T>() + lin.template segment<3>(3);
+  out.dv = d.dv.cast<T>() + lin.template tail<3>();
+  return out;
+}
+
+}  // namespace mvis
