@@ -49,6 +49,7 @@ mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
 mvis_core_test(test_observability test/unit/test_observability.cpp)
 mvis_core_test(test_estimator test/unit/test_estimator.cpp)
 mvis_core_test(test_estimator_sensors test/unit/test_estimator_sensors.cpp)
+mvis_core_test(test_estimator_imu_intrinsics test/unit/test_estimator_imu_intrinsics.cpp)
 
 # A simulated VI-Rig bag for the replay rostest, made at build time: the VI-Rig with a second
 # auxiliary IMU (two aux IMUs and a gyroscope).

@@ -233,8 +233,10 @@ TEST(Estimator, HoldsNamedQuantitiesAndRefusesUnknownOnes) {
   EstimatorOptions options = deterministic();
   options.estimate_intrinsics = true;
   for (const auto& [bad, says] :
-       {std::pair<std::string, std::string>{"cam7.intrinsics", "(cam0, cam1, cam2, imu1, imu2)"},
-        {"imu1.intrinsics", "quantity must be extrinsic, time_offset, got 'intrinsics'"},
+       {std::pair<std::string, std::string>{"cam7.intrinsics",
+                                            "(cam0, cam1, cam2, imu0, imu1, imu2)"},
+        {"imu1.scale", "quantity must be extrinsic, time_offset, intrinsics or gravity_sensitivity"},
+        {"imu0.extrinsic", "quantity must be intrinsics or gravity_sensitivity"},
         {"cam1", "expected <sensor>.<quantity>"}}) {
     options.hold = {bad};
     const auto refused = Estimator::create(run.guess, options);

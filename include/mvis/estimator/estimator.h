@@ -40,6 +40,7 @@
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/frontend/tag_observation.h"
 #include "mvis/rig/rig.h"
@@ -72,9 +73,23 @@ struct EstimatorOptions {
   double intrinsics_focal_prior_px = 10.0;   // fu, fv [px]
   double intrinsics_centre_prior_px = 10.0;  // pu, pv [px]
   double distortion_prior = 0.05;            // every coefficient
+  // IMU intrinsics (report Eq. 1-4, imu_reintegration.h) of every inertial sensor whose model
+  // is rpng: Dw, Da and R_IMUtoACC, and Tg with estimate_gravity_sensitivity; a gyroscope's Dw
+  // only. Sensors with model 'calibrated' keep identity intrinsics. The readings are re-integrated
+  // at the current biases and intrinsics in every evaluation (report Sec. 2.2);
+  // IntrinsicsLinearization::kFixed is the first-order alternative the report warns against,
+  // for comparison. Priors: the configuration's Tw_std, Ta_std, Tg_std, R_IMUtoACC_std where
+  // positive, else these.
+  bool estimate_imu_intrinsics = false;
+  bool estimate_gravity_sensitivity = false;  // Tg (as OpenVINS's calib_imu_g_sensitivity)
+  IntrinsicsLinearization imu_intrinsics_linearization = IntrinsicsLinearization::kReintegrate;
+  double imu_scale_misalignment_prior = 0.01;  // every element of Dw, Da
+  double imu_gravity_sensitivity_prior = 0.002;  // every element of Tg [rad/s per m/s^2]
+  double imu_acc_rotation_prior_rad = 0.01;      // R_IMUtoACC, per axis [rad]
   // Per sensor: quantities held at their configured value although their class is estimated,
-  // as "<sensor>.<quantity>" with quantity extrinsic, time_offset or (cameras) intrinsics,
-  // e.g. {"cam1.intrinsics", "imu2.time_offset"}. The base IMU has none.
+  // as "<sensor>.<quantity>": cameras extrinsic, time_offset, intrinsics; auxiliary sensors
+  // extrinsic, time_offset; every inertial sensor (imu0 too) intrinsics, gravity_sensitivity.
+  // E.g. {"cam1.intrinsics", "imu2.time_offset", "imu0.gravity_sensitivity"}.
   std::vector<std::string> hold;
   int init_frames = 10;        // consecutive cam0 frames with a board pose to initialize
   int min_tags = 2;            // tags a frame needs to be used at all

@@ -18,6 +18,12 @@
 //     order with the readings at t_a (w_m, a_m) and the angular acceleration alpha there:
 //       R(t) = R_a Exp((w_m - b_g) dt + 1/2 alpha dt^2)
 //       p(t) = p_a + v_a dt + 1/2 (R_a (a_m - b_a) + g) dt^2
+//     With the IMU intrinsics estimated the deltas also depend on them (x_I, the sensor's
+//     intrinsics block, imu_reintegration.h), to first order about x_I0 where they were made:
+//       dR = dR0 Exp(J_R_bg db_g) Exp(J_R_I dx_I),  dp += J_p_I dx_I,  dv += J_v_I dx_I
+//     so that the frames between states cannot pin the biases along what only the intrinsics
+//     and biases together are seen to change (a gravity sensitivity column against a gyroscope
+//     bias when one axis stays near vertical).
 //     Linear (pose-based) interpolation errs by ~|a| T^2 / 8 between 30 Hz states, ~0.1 px at
 //     1 m on the VI-Rig, which biased its extrinsics by ~2 mm in simulation; this does not.
 // A board corner p_G (world = board frame) is then seen at
@@ -31,12 +37,13 @@
 //                    intrinsics [8]
 //   pose-based:      pose_k [7], pose_k+1 [7], extrinsic [7], time_offset [1], intrinsics [8]
 //   IMU-propagated:  pose_k [7], speed_bias_k [9], gravity [3], extrinsic [7], time_offset [1],
-//                    intrinsics [8]
+//                    intrinsics [8], and with the IMU intrinsics the base IMU's block [24]
 // Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame by forward-mode
 // automatic differentiation in the tangent directions of the blocks (pose and extrinsic
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
 // coordinates; t_d), then chained per corner with the projection's analytic Jacobian in p_C and
-// in the intrinsics (projectWithJacobians). Pose-block Jacobians are written in the tangent lift
+// in the intrinsics (projectWithJacobians). The IMU intrinsics enter through 9 more directions,
+// perturbations of the anchor's deltas, chained with J_*_I. Pose-block Jacobians are written in the tangent lift
 // convention of state_blocks.h.
 #pragma once
 
@@ -47,6 +54,7 @@
 #include <vector>
 
 #include "mvis/estimator/imu_preintegration.h"
+#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {
@@ -73,6 +81,13 @@ class TagReprojectionFactor final : public ceres::CostFunction {
     Eigen::Vector3d gyro = Eigen::Vector3d::Zero();                  // w_m at t_a [rad/s]
     Eigen::Vector3d accel = Eigen::Vector3d::Zero();                 // a_m at t_a [m/s^2]
     Eigen::Vector3d angular_acceleration = Eigen::Vector3d::Zero();  // [rad/s^2]
+    // With the IMU intrinsics: the deltas' Jacobian in them ([dtheta; dp; dv] rows) and where
+    // it was taken.
+    bool with_intrinsics = false;
+    Eigen::Matrix<double, 9, kImuIntrinsicsSize> J_intrinsics =
+        Eigen::Matrix<double, 9, kImuIntrinsicsSize>::Zero();
+    Eigen::Matrix<double, kImuIntrinsicsSize, 1> intrinsics0 =
+        Eigen::Matrix<double, kImuIntrinsicsSize, 1>::Zero();
   };
 
   // Kinematic: `dt_nominal` = t_c - t_k [s] (t_d added at evaluation), `gyro_k` the base gyroscope
@@ -91,6 +106,11 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   static ImuAnchor makeAnchor(const ImuPreintegration& pre, double dt_nominal,
                               const Eigen::Vector3d& gyro, const Eigen::Vector3d& accel,
                               const Eigen::Vector3d& angular_acceleration);
+  // The anchor from deltas re-integrated from the raw readings (imu_reintegration.h), with
+  // their intrinsics columns when `with_intrinsics`.
+  static ImuAnchor makeAnchor(const ImuDeltas& deltas, bool with_intrinsics, double dt_nominal,
+                              const Eigen::Vector3d& gyro, const Eigen::Vector3d& accel,
+                              const Eigen::Vector3d& angular_acceleration);
   static TagReprojectionFactor* imuPropagated(DistortionModel model,
                                               std::vector<CornerObservation> corners,
                                               double pixel_sigma, const ImuAnchor& anchor);
@@ -104,6 +124,9 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   TagReprojectionFactor(Interpolation interpolation, DistortionModel model,
                         std::vector<CornerObservation> corners, double pixel_sigma,
                         double dt_nominal, double interval, const Eigen::Vector3d& gyro_k);
+  // Evaluate with Dim jet directions: 25 (kStageDim), or 34 with the anchor's deltas.
+  template <int Dim>
+  bool evaluate(double const* const* parameters, double* residuals, double** jacobians) const;
   // Jet offset, tangent columns and ambient size of each parameter block but the intrinsics.
   struct BlockLayout {
     int jet_offset, columns, ambient;

@@ -8,25 +8,29 @@ static Status validateHolds(const Rig& rig, const std::vector<std::string>& hold
     const std::string sensor = entry.substr(0, dot == std::string::npos ? 0 : dot);
     const std::string quantity = dot == std::string::npos ? "" : entry.substr(dot + 1);
     std::string names;
-    bool camera = false, inertial = false;
+    bool camera = false, aux = false, base = false;
     for (const auto& c : rig.cameras) {
       names += (names.empty() ? "" : ", ") + c.name;
       camera = camera || c.name == sensor;
     }
-    for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+    for (std::size_t i = 0; i < rig.inertial.size(); ++i) {
       names += ", " + rig.inertial[i].name;
-      inertial = inertial || rig.inertial[i].name == sensor;
+      (i == 0 ? base : aux) |= rig.inertial[i].name == sensor;
     }
     const std::string where = "estimator option hold: '" + entry + "': ";
-    if (!camera && !inertial) {
-      return Status::Error(where + "expected <sensor>.<quantity> with a camera or auxiliary " +
-                           "sensor of the rig (" + names + ")");
+    if (!camera && !aux && !base) {
+      return Status::Error(where + "expected <sensor>.<quantity> with a sensor of the rig (" +
+                           names + ")");
     }
-    const bool known = quantity == "extrinsic" || quantity == "time_offset" ||
-                       (camera && quantity == "intrinsics");
+    const bool spatial = quantity == "extrinsic" || quantity == "time_offset";
+    const bool imu = quantity == "intrinsics" || quantity == "gravity_sensitivity";
+    const bool known = camera ? spatial || quantity == "intrinsics" : base ? imu : spatial || imu;
     if (!known) {
-      return Status::Error(where + "quantity must be extrinsic, time_offset" +
-                           (camera ? " or intrinsics" : "") + ", got '" + quantity + "'");
+      const char* allowed = camera ? "extrinsic, time_offset or intrinsics"
+                            : base ? "intrinsics or gravity_sensitivity (the base IMU defines "
+                                     "the rig's frame and clock)"
+                                   : "extrinsic, time_offset, intrinsics or gravity_sensitivity";
+      return Status::Error(where + "quantity must be " + allowed + ", got '" + quantity + "'");
     }
   }
   return Status::Ok();
@@ -67,7 +71,10 @@ Status validate(const EstimatorOptions& o) {
                                {"aux_velocity_prior", o.aux_velocity_prior},
                                {"aux_timeout_s", o.aux_timeout_s},
                                {"aux_max_gap_s", o.aux_max_gap_s},
-                               {"observability_horizon_s", o.observability_horizon_s}}) {
+                               {"observability_horizon_s", o.observability_horizon_s},
+                               {"imu_scale_misalignment_prior", o.imu_scale_misalignment_prior},
+                               {"imu_gravity_sensitivity_prior", o.imu_gravity_sensitivity_prior},
+                               {"imu_acc_rotation_prior_rad", o.imu_acc_rotation_prior_rad}}) {
     if (!(v > 0.0)) return bad(key, "must be positive");
   }
   if (o.covariance_every < 0) return bad("covariance_every", "must be zero or positive");
@@ -247,9 +254,10 @@ std::vector<ImuMeasurement> Estimator::Impl::imuBetween(TimeNs a, TimeNs b) cons
 
 std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrate(TimeNs a, TimeNs b,
                                                                  const Eigen::Vector3d& bg,
-                                                                 const Eigen::Vector3d& ba) const {
+                                                                 const Eigen::Vector3d& ba,
+                                                                 bool corrected) const {
   auto pre = std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
-  for (const auto& m : imuBetween(a, b)) pre->add(m);
+  for (const auto& m : imuBetween(a, b)) pre->add(corrected ? propagationReading(m) : m);
   return pre;
 }
 
@@ -338,6 +346,7 @@ Rig Estimator::Impl::calibration() const {
       s.std = sd;
     }
   }
+  writeImuIntrinsics(&out);
   return out;
 }
 
@@ -362,6 +371,11 @@ StatusOr<std::unique_ptr<Estimator>> Estimator::create(const Rig& rig,
                            ": Tg (gravity sensitivity) of a gyroscope is not supported: it has "
                            "no accelerometer to read the specific force with; set it to zero");
     }
+  }
+  if (options.estimate_imu_intrinsics && options.aux_imu_model == AuxImuModel::kRigidVelocity) {
+    return Status::Error(
+        "estimator options: estimate_imu_intrinsics needs aux_imu_model velocity_state (the "
+        "rigid-velocity model reads the aux gyroscope uncorrected)");
   }
   return std::unique_ptr<Estimator>(new Estimator(std::make_unique<Impl>(rig, options)));
 }

@@ -254,18 +254,34 @@ void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
   State* sj = states[k + 1].get();
   AuxState* ai = si->aux[idx].get();
   AuxState* aj = sj->aux[idx].get();
+  double* intrinsics = imuIntrinsics(a.sensor);
+  const IntrinsicsLinearization mode = options.imu_intrinsics_linearization;
   if (a.gyro) {
-    addRecord(si, new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion), nullptr,
-              {si->pose, si->speed_bias, sj->pose, sj->speed_bias, ai->x, aj->x, a.rotation,
-               a.time_offset});
-  } else {
-    addRecord(si,
-              new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
-                               sj->motion),
-              nullptr,
-              {si->pose, si->speed_bias, sj->pose, sj->speed_bias, ai->x, aj->x, a.extrinsic,
-               a.time_offset, gravity});
+    std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,   sj->speed_bias,
+                                   ai->x,    aj->x,          a.rotation, a.time_offset};
+    ceres::CostFunction* cost = nullptr;
+    if (intrinsics != nullptr) {
+      cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion, mode,
+                            intrinsics);
+      blocks.push_back(intrinsics);
+    } else {
+      cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion);
+    }
+    addRecord(si, cost, nullptr, std::move(blocks));
+    return;
   }
+  std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,    sj->speed_bias, ai->x,
+                                 aj->x,    a.extrinsic,    a.time_offset, gravity};
+  ceres::CostFunction* cost = nullptr;
+  if (intrinsics != nullptr) {
+    cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
+                            sj->motion, imu_intrinsics[a.sensor]->frame, mode, intrinsics);
+    blocks.push_back(intrinsics);
+  } else {
+    cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
+                            sj->motion);
+  }
+  addRecord(si, cost, nullptr, std::move(blocks));
 }
 
 void Estimator::Impl::addAuxCalibrationBlocks() {

@@ -128,6 +128,18 @@ struct AuxSensor {
   double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
 };
 
+// An inertial sensor's intrinsics block (imu_reintegration.h) while they are estimated.
+struct ImuIntrinsicsBlock {
+  double x[kImuIntrinsicsSize];
+  ImuIntrinsicsFrame frame;
+  Eigen::Matrix<double, kImuIntrinsicsSize, 1> prior_std;
+  // Holds the entries that are not estimated (a gyroscope's all but Dw; Tg unless gravity
+  // sensitivity is estimated); null when every entry is.
+  std::unique_ptr<ceres::Manifold> manifold;
+  // Latest covariance of the block (ambient; zero rows for the held entries), if computed.
+  std::optional<Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize>> covariance;
+};
+
 struct InitFrame {
   TimeNs t = 0;  // base clock
   SE3 T_G_I;
@@ -151,6 +163,7 @@ inline double seconds(Clock::time_point a, Clock::time_point b) {
 using estimator_internal::AuxSensor;
 using estimator_internal::AuxState;
 using estimator_internal::CameraBlocks;
+using estimator_internal::ImuIntrinsicsBlock;
 using estimator_internal::Clock;
 using estimator_internal::InitFrame;
 using estimator_internal::readingIn;
@@ -219,11 +232,15 @@ struct Estimator::Impl {
     Eigen::VectorXd variance;
   };
   std::map<const double*, Hold> holds;
-  // Per inertial sensor: its readings corrected by its configured intrinsics (imu_correction.h).
+  // Per inertial sensor: its readings corrected by its configured intrinsics (imu_correction.h),
+  // or left raw (identity) when they are estimated.
   std::vector<ImuCorrection> imu_corrections;
+  // Per inertial sensor: its intrinsics block, or null when they are not estimated
+  // (estimator_intrinsics.cpp).
+  std::vector<std::unique_ptr<ImuIntrinsicsBlock>> imu_intrinsics;
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
-    for (const auto& sensor : rig.inertial) imu_corrections.emplace_back(sensor.intrinsics);
+    initImuIntrinsics();
     for (const auto& cam : rig.cameras) {
       auto blocks = std::make_unique<CameraBlocks>();
       se3ToPose(cam.T_cam_imu, blocks->extrinsic);
@@ -270,8 +287,12 @@ struct Estimator::Impl {
   // IMU readings over [a, b] with interpolated readings at both ends.
   std::vector<ImuMeasurement> imuBetween(TimeNs a, TimeNs b) const;
 
+  // `corrected`: the readings corrected by the current intrinsics estimate
+  // (propagationReading), for when the deltas are used as they are; else as stored (raw while
+  // the intrinsics are estimated: the factors re-integrate them).
   std::shared_ptr<ImuPreintegration> preintegrate(TimeNs a, TimeNs b, const Eigen::Vector3d& bg,
-                                                  const Eigen::Vector3d& ba) const;
+                                                  const Eigen::Vector3d& ba,
+                                                  bool corrected = false) const;
 
   // Whether t falls between two readings further apart than maxImuInterval().
   bool insideImuGap(TimeNs t) const;
@@ -301,6 +322,25 @@ struct Estimator::Impl {
 
   // A new window state at base time t with its readings (pose and speed left to the caller).
   std::unique_ptr<State> makeState(TimeNs t) const;
+
+  // ---- IMU intrinsics (estimator_intrinsics.cpp) -----------------------------------------
+  // Sets up imu_intrinsics and imu_corrections from the rig and options.
+  void initImuIntrinsics();
+  // Adds the estimated sensors' blocks with their priors to the problem.
+  void addImuIntrinsicsBlocks();
+  // Sensor i's intrinsics block, or null when they are not estimated.
+  double* imuIntrinsics(std::size_t i) const {
+    return imu_intrinsics[i] ? imu_intrinsics[i]->x : nullptr;
+  }
+  // A base reading for IMU-rate propagation: corrected by the current intrinsics estimate, and
+  // the biases to subtract from it (ImuCorrection's transformed biases).
+  ImuMeasurement propagationReading(const ImuMeasurement& m) const;
+  void propagationBiases(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
+                         Eigen::Vector3d* bg_out, Eigen::Vector3d* ba_out) const;
+  // After a covariance computation: every estimated block's covariance.
+  void imuIntrinsicsCovariance(const ceres::Covariance& cov);
+  // Writes the current intrinsics (and standard deviations) into a rig.
+  void writeImuIntrinsics(Rig* out) const;
 
   // ---- auxiliary sensors (estimator_aux.cpp) ---------------------------------------------
   Status addAuxReading(std::size_t sensor, const ImuMeasurement& m);

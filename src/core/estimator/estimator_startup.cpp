@@ -140,11 +140,11 @@ void Estimator::Impl::initialize() {
   attachOtherFrames();
   initialized = true;  // auxiliary sensors join the window from here on
   extendAux();
-  // The first batch settles the states; the auxiliary sensors' calibration and the cameras'
-  // intrinsics wait for the window (and its observability check): one short window cannot tell
-  // much about them, and what it cannot observe would move on linearization noise alone. (Free
-  // intrinsics in the batch once settled every extrinsic 0.6 deg and 10 mm off, and the
-  // marginalization prior kept it there.)
+  // The first batch settles the states; the auxiliary sensors' calibration and the cameras' and
+  // IMUs' intrinsics wait for the window (and its observability check): one short window cannot
+  // tell much about them, and what it cannot observe would move on linearization noise alone.
+  // (Free camera intrinsics in the batch once settled every extrinsic 0.6 deg and 10 mm off,
+  // and the marginalization prior kept it there.)
   std::vector<double*> held_for_batch;
   std::vector<double*> batch_blocks;
   for (auto& a : aux) {
@@ -152,6 +152,9 @@ void Estimator::Impl::initialize() {
     batch_blocks.push_back(a->time_offset);
   }
   for (auto& cb : cameras) batch_blocks.push_back(cb->intrinsics);
+  for (auto& b : imu_intrinsics) {
+    if (b) batch_blocks.push_back(b->x);
+  }
   for (double* b : batch_blocks) {
     if (!problem->IsParameterBlockConstant(b)) {
       problem->SetParameterBlockConstant(b);

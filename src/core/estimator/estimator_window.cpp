@@ -64,6 +64,7 @@ void Estimator::Impl::addCalibrationBlocks() {
     }
   }
   addAuxCalibrationBlocks();
+  addImuIntrinsicsBlocks();
 }
 
 ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::size_t k,
@@ -84,12 +85,27 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
   }
   if (options.interpolation == FrameInterpolation::kImu) {
     const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
-    auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),
-                            Eigen::Vector3d(sk->speed_bias + 6));
-    const ImuMeasurement at = readingAt(t_a);
-    const auto anchor = TagReprojectionFactor::makeAnchor(
-        *pre, toSeconds(frame.stamp_ns - t_a), at.gyro, at.accel, angularAcceleration(t_a));
+    // The readings at t_a for the last few milliseconds (the time offset's change): corrected by
+    // the current intrinsics estimate when they are estimated (the raw bias states are then
+    // subtracted from corrected readings: a few parts per thousand of a bias over milliseconds).
+    const ImuMeasurement at = propagationReading(readingAt(t_a));
+    const Eigen::Vector3d alpha = angularAcceleration(t_a);
+    const double dt_nominal = toSeconds(frame.stamp_ns - t_a);
+    TagReprojectionFactor::ImuAnchor anchor;
     *blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    if (double* imu_in = imuIntrinsics(0)) {
+      // Raw readings re-integrated at the state's biases and the current intrinsics, with the
+      // intrinsics' Jacobian (tag_reprojection_factor.h).
+      const ImuDeltas d = reintegrate(imuBetween(sk->t, t_a),
+                                      deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
+                                      imu_intrinsics[0]->frame, true);
+      anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
+      blocks->push_back(imu_in);
+    } else {
+      auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),
+                              Eigen::Vector3d(sk->speed_bias + 6));
+      anchor = TagReprojectionFactor::makeAnchor(*pre, dt_nominal, at.gyro, at.accel, alpha);
+    }
     return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
                                                 anchor);
   }
@@ -140,8 +156,16 @@ void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
 void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre) {
   State* a = states[k].get();
   State* b = states[k + 1].get();
-  addRecord(a, new ImuFactor(std::move(pre)), nullptr,
-            {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity});
+  double* intrinsics = imuIntrinsics(0);
+  if (intrinsics == nullptr) {
+    addRecord(a, new ImuFactor(std::move(pre)), nullptr,
+              {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity});
+    return;
+  }
+  addRecord(a,
+            new ImuFactor(std::move(pre), imu_intrinsics[0]->frame,
+                          options.imu_intrinsics_linearization, intrinsics),
+            nullptr, {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity, intrinsics});
 }
 
 std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
@@ -201,12 +225,13 @@ void Estimator::Impl::propagate(const ImuMeasurement& m) {
   if (m.stamp_ns <= newest.t) return;
   const Eigen::Vector3d bg(newest.speed_bias + 3), ba(newest.speed_bias + 6);
   if (!propagation || propagation_from != newest.t) {
-    propagation =
-        std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
-    for (const auto& r : imuBetween(newest.t, m.stamp_ns)) propagation->add(r);
+    // With estimated intrinsics the readings are raw: corrected here by the current estimate.
+    Eigen::Vector3d bg_c, ba_c;
+    propagationBiases(bg, ba, &bg_c, &ba_c);
+    propagation = preintegrate(newest.t, m.stamp_ns, bg_c, ba_c, true);
     propagation_from = newest.t;
   } else {
-    propagation->add(m);
+    propagation->add(propagationReading(m));
   }
   EstimatorState out;
   out.stamp_ns = m.stamp_ns;
@@ -339,7 +364,12 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
       if (!problem->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
     }
   }
+  for (std::size_t i = 0; i < imu_intrinsics.size(); ++i) {
+    const double* b = imuIntrinsics(i);
+    if (b != nullptr && !problem->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
+  }
   if (!cov.Compute(blocks, problem.get())) return Status::Error("covariance computation failed");
+  imuIntrinsicsCovariance(cov);
   if (pose_cov != nullptr) {
     cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
     if (!holds.empty()) {

@@ -1,6 +1,7 @@
 #include "mvis/factors/tag_reprojection_factor.h"
 
 #include "mvis/camera/camera_model.h"
+#include "mvis/common/lie.h"
 #include "mvis/estimator/state_blocks.h"
 #include "tangent_jet.h"
 
@@ -8,22 +9,15 @@ namespace mvis {
 namespace {
 
 // Directions of the camera pose's derivatives: [dtheta_k, dp_k] 0-5; v_k, b_g,k, b_a,k 6-14
-// (or dtheta_k+1, dp_k+1 6-11 for pose-based); gravity 15-17; dtheta_e, dp_e 18-23; t_d 24.
-constexpr int kStageDim = 25;
+// (or dtheta_k+1, dp_k+1 6-11 for pose-based); gravity 15-17; dtheta_e, dp_e 18-23; t_d 24;
+// with the IMU intrinsics the anchor's deltas [dtheta, dp, dv] 25-33.
+constexpr int kStageDim = 25, kDeltaJet = 25;
 constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
-using StageJet = ceres::Jet<double, kStageDim>;
 
 using tangent_jet::expT;
 using tangent_jet::logT;
 using tangent_jet::Mat3;
 using tangent_jet::Vec3;
-
-Mat3<StageJet> perturbRotation(const Eigen::Quaterniond& q, int first) {
-  return tangent_jet::perturbRotation<StageJet>(q, first);
-}
-Vec3<StageJet> perturbVector(const double* x, int first) {
-  return tangent_jet::perturbVector<StageJet>(x, first);
-}
 
 }  // namespace
 
@@ -67,6 +61,33 @@ TagReprojectionFactor::ImuAnchor TagReprojectionFactor::makeAnchor(
   return a;
 }
 
+TagReprojectionFactor::ImuAnchor TagReprojectionFactor::makeAnchor(
+    const ImuDeltas& deltas, bool with_intrinsics, double dt_nominal, const Eigen::Vector3d& gyro,
+    const Eigen::Vector3d& accel, const Eigen::Vector3d& angular_acceleration) {
+  ImuAnchor a;
+  a.T_a = deltas.duration;
+  a.dt_nominal = dt_nominal;
+  a.dR = Eigen::Quaterniond(deltas.dR).normalized();
+  a.dp = deltas.dp;
+  a.dv = deltas.dv;
+  a.bias_gyro0 = deltas.x0.head<3>();
+  a.bias_accel0 = deltas.x0.segment<3>(3);
+  a.J_R_bg = deltas.J.block<3, 3>(0, 0);
+  a.J_p_bg = deltas.J.block<3, 3>(3, 0);
+  a.J_p_ba = deltas.J.block<3, 3>(3, 3);
+  a.J_v_bg = deltas.J.block<3, 3>(6, 0);
+  a.J_v_ba = deltas.J.block<3, 3>(6, 3);
+  a.gyro = gyro;
+  a.accel = accel;
+  a.angular_acceleration = angular_acceleration;
+  a.with_intrinsics = with_intrinsics;
+  if (with_intrinsics) {
+    a.J_intrinsics = deltas.J.rightCols<kImuIntrinsicsSize>();
+    a.intrinsics0 = deltas.x0.tail<kImuIntrinsicsSize>();
+  }
+  return a;
+}
+
 TagReprojectionFactor* TagReprojectionFactor::imuPropagated(DistortionModel model,
                                                             std::vector<CornerObservation> corners,
                                                             double pixel_sigma,
@@ -74,6 +95,7 @@ TagReprojectionFactor* TagReprojectionFactor::imuPropagated(DistortionModel mode
   auto* f = new TagReprojectionFactor(Interpolation::kImuPropagated, model, std::move(corners),
                                       pixel_sigma, anchor.dt_nominal, 0.0, anchor.gyro);
   f->anchor_ = anchor;
+  if (anchor.with_intrinsics) f->mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
   return f;
 }
 
@@ -108,6 +130,22 @@ TagReprojectionFactor::TagReprojectionFactor(Interpolation interpolation, Distor
 
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
+  if (interpolation_ == Interpolation::kImuPropagated && anchor_.with_intrinsics) {
+    return evaluate<kStageDim + 9>(parameters, residuals, jacobians);
+  }
+  return evaluate<kStageDim>(parameters, residuals, jacobians);
+}
+
+template <int Dim>
+bool TagReprojectionFactor::evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  using StageJet = ceres::Jet<double, Dim>;
+  const auto perturbRotation = [](const Eigen::Quaterniond& q, int first) {
+    return tangent_jet::perturbRotation<StageJet>(q, first);
+  };
+  const auto perturbVector = [](const double* x, int first) {
+    return tangent_jet::perturbVector<StageJet>(x, first);
+  };
   // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
   // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
@@ -141,12 +179,28 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
     const Vec3<StageJet> g = perturbVector(parameters[2], 15);
     const Vec3<StageJet> dbg = b_g - a.bias_gyro0.cast<StageJet>();
     const Vec3<StageJet> dba = b_a - a.bias_accel0.cast<StageJet>();
-    const Mat3<StageJet> dR =
+    Mat3<StageJet> dR =
         a.dR.toRotationMatrix().cast<StageJet>() * expT<StageJet>(a.J_R_bg.cast<StageJet>() * dbg);
-    const Vec3<StageJet> dp =
+    Vec3<StageJet> dp =
         a.dp.cast<StageJet>() + a.J_p_bg.cast<StageJet>() * dbg + a.J_p_ba.cast<StageJet>() * dba;
-    const Vec3<StageJet> dv =
+    Vec3<StageJet> dv =
         a.dv.cast<StageJet>() + a.J_v_bg.cast<StageJet>() * dbg + a.J_v_ba.cast<StageJet>() * dba;
+    if constexpr (Dim > kStageDim) {
+      // The intrinsics' first-order change, with its own directions (chained below).
+      const Eigen::Matrix<double, 9, 1> lin =
+          a.J_intrinsics *
+          (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
+           a.intrinsics0);
+      Vec3<StageJet> e_R, e_p, e_v;
+      for (int i = 0; i < 3; ++i) {
+        e_R[i] = StageJet(0.0, kDeltaJet + i);
+        e_p[i] = StageJet(lin[3 + i], kDeltaJet + 3 + i);
+        e_v[i] = StageJet(lin[6 + i], kDeltaJet + 6 + i);
+      }
+      dR = dR * lie::expSO3(lin.head<3>()).cast<StageJet>() * expT<StageJet>(e_R);
+      dp += e_p;
+      dv += e_v;
+    }
     const StageJet T(a.T_a);
     const Mat3<StageJet> R_a = R_k * dR;
     const Vec3<StageJet> p_a = p_k + v * T + g * (StageJet(0.5) * T * T) + R_k * dp;
@@ -167,7 +221,7 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
   // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
   Eigen::Matrix3d R_val;
   Eigen::Vector3d t_val;
-  Eigen::Matrix<double, 3, kStageDim> dR[3], dT;
+  Eigen::Matrix<double, 3, Dim> dR[3], dT;
   for (int i = 0; i < 3; ++i) {
     t_val[i] = t_CG[i].a;
     dT.row(i) = t_CG[i].v.transpose();
@@ -178,6 +232,15 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
   }
   const double* intrinsics = parameters[n_blocks];
   const double inv_sigma = 1.0 / sigma_;
+  // d(anchor rotation perturbation) / d(IMU intrinsics): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d).
+  Eigen::Matrix<double, 3, kImuIntrinsicsSize> rotation_chain;
+  if constexpr (Dim > kStageDim) {
+    const Eigen::Matrix<double, 9, 1> lin =
+        anchor_.J_intrinsics *
+        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
+         anchor_.intrinsics0);
+    rotation_chain = lie::rightJacobianSO3(lin.head<3>()) * anchor_.J_intrinsics.topRows<3>();
+  }
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J_pc;
   Eigen::Matrix<double, 2, 8> J_k;
@@ -190,9 +253,9 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
     for (int i = 0; i < 2; ++i) residuals[row + i] = (uv[i] - corners_[c].uv[i]) * inv_sigma;
     if (jacobians == nullptr) continue;
 
-    const Eigen::Matrix<double, 3, kStageDim> D =
+    const Eigen::Matrix<double, 3, Dim> D =
         dR[0] * p_G.x() + dR[1] * p_G.y() + dR[2] * p_G.z() + dT;
-    const Eigen::Matrix<double, 2, kStageDim> J = (J_pc * inv_sigma) * D;
+    const Eigen::Matrix<double, 2, Dim> J = (J_pc * inv_sigma) * D;
     for (int i = 0; i < 2; ++i) {
       const int r = row + i;
       for (int b = 0; b < n_blocks; ++b) {
@@ -205,6 +268,14 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
       if (jacobians[n_blocks] != nullptr) {
         double* out = jacobians[n_blocks] + 8 * r;
         for (int j = 0; j < 8; ++j) out[j] = J_k(i, j) * inv_sigma;
+      }
+      if constexpr (Dim > kStageDim) {
+        if (jacobians[n_blocks + 1] != nullptr) {
+          Eigen::Map<Eigen::Matrix<double, 1, kImuIntrinsicsSize>> out(
+              jacobians[n_blocks + 1] + kImuIntrinsicsSize * r);
+          out = J.row(i).template segment<3>(kDeltaJet) * rotation_chain +
+                J.row(i).template segment<6>(kDeltaJet + 3) * anchor_.J_intrinsics.bottomRows<6>();
+        }
       }
     }
   }
