@@ -1,9 +1,12 @@
-// IMU intrinsics estimated online (report Sec. 2.2, issue 8): on the VI-Rig with every inertial
-// sensor's intrinsics off by the report's Table 4 perturbations, re-integration recovers them
-// inside their 3-sigma, and the fixed-linearization alternative ends measurably worse.
+// IMU intrinsics estimated online (report Sec. 2.2 and Table 3): on the VI-Rig with every
+// inertial sensor's intrinsics off by the report's Table 4 perturbations, re-integration
+// recovers them inside their 3-sigma while the cameras and aux sensors stay calibrated; with the
+// intrinsics' linearization fixed and larger errors, the same run ends measurably worse; on
+// yaw-only motion the intrinsics Table 3 names unobservable are reported and keep their prior.
 #include <gtest/gtest.h>
 
-#include <iostream>
+#include <algorithm>
+#include <cstdio>
 #include <random>
 
 #include "estimator_test_util.h"
@@ -13,7 +16,7 @@ namespace {
 
 using namespace mvis::test;  // NOLINT(google-build-using-namespace): the shared test helpers
 
-// Truth: every inertial sensor rpng with intrinsics of Table 4 size.
+// Truth: every inertial sensor rpng with intrinsics of Table 4 size (a gyroscope: Tw only).
 void withIntrinsics(Rig* rig) {
   for (auto& s : rig->inertial) {
     s.model = ImuModel::kRpng;
@@ -25,17 +28,17 @@ void withIntrinsics(Rig* rig) {
   }
 }
 
-// The guess: the truth's intrinsics perturbed as in Table 4 (Dw, Da 3e-3 per element, Tg 1e-3,
-// R_IMUtoACC 3e-3 rad per axis).
-void perturbIntrinsics(Rig* rig, std::uint64_t seed) {
+// The guess: the truth's intrinsics perturbed as in Table 4 times `scale` (Dw, Da 3e-3 per
+// element, Tg 1e-3, R_IMUtoACC 3e-3 rad per axis).
+void perturbIntrinsics(Rig* rig, std::uint64_t seed, double scale) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
   for (auto& s : rig->inertial) {
     Eigen::Matrix3d Dw = s.intrinsics.Tw.inverse(), Da = s.intrinsics.Ta.inverse();
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r <= c; ++r) {
-        Dw(r, c) += 3e-3 * n(rng);
-        Da(r, c) += 3e-3 * n(rng);
+        Dw(r, c) += scale * 3e-3 * n(rng);
+        Da(r, c) += scale * 3e-3 * n(rng);
       }
     }
     s.intrinsics.Tw = Dw.inverse();
@@ -43,9 +46,8 @@ void perturbIntrinsics(Rig* rig, std::uint64_t seed) {
     if (s.type == InertialType::kGyroscope) continue;
     s.intrinsics.Ta = Da.inverse();
     s.intrinsics.Ta.triangularView<Eigen::StrictlyLower>().setZero();
-    for (int k = 0; k < 9; ++k) s.intrinsics.Tg(k / 3, k % 3) += 1e-3 * n(rng);
-    s.intrinsics.R_IMUtoACC =
-        s.intrinsics.R_IMUtoACC * lie::expSO3(3e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    for (int k = 0; k < 9; ++k) s.intrinsics.Tg(k / 3, k % 3) += scale * 1e-3 * n(rng);
+    s.intrinsics.R_IMUtoACC *= lie::expSO3(scale * 3e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
   }
 }
 
@@ -53,103 +55,172 @@ struct IntrinsicsErrors {
   double D = 0.0;         // largest |error| of a Dw or Da element
   double Tg = 0.0;        // largest |error| of a Tg element
   double rotation = 0.0;  // R_IMUtoACC [deg]
-  double sigma = 0.0;     // largest |error| / std over every estimated element
+  double sigma = 0.0;     // largest |error| / std over the estimated elements
 };
 
 IntrinsicsErrors intrinsicsErrors(const InertialSensor& truth, const InertialSensor& est) {
   IntrinsicsErrors e;
   const ImuIntrinsics &t = truth.intrinsics, &x = est.intrinsics;
-  const Eigen::Matrix3d dDw = x.Tw.inverse() - t.Tw.inverse();
-  const Eigen::Matrix3d dDa = x.Ta.inverse() - t.Ta.inverse();
   const bool gyro = truth.type == InertialType::kGyroscope;
-  e.D = gyro ? dDw.cwiseAbs().maxCoeff() : std::max(dDw.cwiseAbs().maxCoeff(), dDa.cwiseAbs().maxCoeff());
+  e.D = (x.Tw.inverse() - t.Tw.inverse()).cwiseAbs().maxCoeff();
+  if (!gyro) e.D = std::max(e.D, (x.Ta.inverse() - t.Ta.inverse()).cwiseAbs().maxCoeff());
   e.Tg = (x.Tg - t.Tg).cwiseAbs().maxCoeff();
   const Eigen::Vector3d dtheta = lie::logSO3(t.R_IMUtoACC.transpose() * x.R_IMUtoACC);
   e.rotation = dtheta.norm() * 180.0 / M_PI;
   if (!est.std) return e;
-  const auto ratio = [&](const Eigen::Matrix3d& err, const Eigen::Matrix3d& sd) {
+  const auto ratio = [](const Eigen::MatrixXd& err, const Eigen::MatrixXd& sd) {
     double worst = 0.0;
-    for (int k = 0; k < 9; ++k) {
+    for (int k = 0; k < err.size(); ++k) {
       if (sd(k) > 0.0) worst = std::max(worst, std::abs(err(k)) / sd(k));
     }
     return worst;
   };
   e.sigma = ratio(x.Tw - t.Tw, est.std->Tw);
   if (!gyro) {
-    e.sigma = std::max({e.sigma, ratio(x.Ta - t.Ta, est.std->Ta), ratio(x.Tg - t.Tg, est.std->Tg)});
-    for (int k = 0; k < 3; ++k) {
-      if (est.std->R_IMUtoACC[k] > 0) {
-        e.sigma = std::max(e.sigma, std::abs(dtheta[k]) / est.std->R_IMUtoACC[k]);
-      }
-    }
+    e.sigma = std::max({e.sigma, ratio(x.Ta - t.Ta, est.std->Ta), ratio(x.Tg - t.Tg, est.std->Tg),
+                        ratio(dtheta, est.std->R_IMUtoACC)});
   }
   return e;
 }
 
-TEST(Estimator, CalibratesImuIntrinsicsByReintegration) {
-  const double duration = getenv("DUR") ? std::atof(getenv("DUR")) : 30.0;
-  const std::uint64_t seed = getenv("SEED") ? std::atoi(getenv("SEED")) : 7;
-  SimRun run = simulate("sim_vi_rig", duration, seed, MotionKind::kHandheld, false, withIntrinsics);
-  if (!getenv("NOPERTURB")) perturbIntrinsics(&run.guess, 7);
-  for (auto mode : {IntrinsicsLinearization::kReintegrate}) {
-    EstimatorOptions options = deterministic();
-    options.pixel_sigma_px = 0.5;
-    options.estimate_imu_intrinsics = true;
-    options.estimate_gravity_sensitivity = true;
-    options.imu_intrinsics_linearization = mode;
-    if (getenv("REPORT")) options.interpolation = FrameInterpolation::kReport;
-    const auto start = std::chrono::steady_clock::now();
-    const auto estimator = runFrom(run.guess, run, options);
-    ASSERT_NE(estimator, nullptr);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const Rig estimate = estimator->calibration();
-    for (std::size_t i = 0; i < run.truth.inertial.size(); ++i) {
-      const IntrinsicsErrors g = intrinsicsErrors(run.truth.inertial[i], run.guess.inertial[i]);
-      const IntrinsicsErrors e = intrinsicsErrors(run.truth.inertial[i], estimate.inertial[i]);
-      std::printf("%s %s: D %.5f (from %.5f)  Tg %.5f (from %.5f)  rot %.4f deg (from %.4f)  max err/sigma %.2f\n",
-                  mode == IntrinsicsLinearization::kReintegrate ? "reintegrate" : "fixed",
-                  run.truth.inertial[i].name.c_str(), e.D, g.D, e.Tg, g.Tg, e.rotation, g.rotation,
-                  e.sigma);
-    }
-    {
-      const auto& t = run.truth.inertial[0].intrinsics;
-      const auto& x = estimate.inertial[0].intrinsics;
-      std::cout << "dDw\n" << (x.Tw.inverse() - t.Tw.inverse()) << "\nTw std\n" << estimate.inertial[0].std->Tw
-                << "\ndDa\n" << (x.Ta.inverse() - t.Ta.inverse()) << "\nTa std\n" << estimate.inertial[0].std->Ta
-                << "\ndTg\n" << (x.Tg - t.Tg) << "\nTg std\n" << estimate.inertial[0].std->Tg
-                << "\ndtheta " << lie::logSO3(t.R_IMUtoACC.transpose() * x.R_IMUtoACC).transpose()
-                << " std " << estimate.inertial[0].std->R_IMUtoACC.transpose() << "\n";
-    }
-    {
-      const auto traj = estimator->trajectory();
-      const EstimatorState& last = traj.back();
-      Eigen::Vector3d bg_true, ba_true, amean = Eigen::Vector3d::Zero();
-      int n = 0;
-      for (const auto& [sensor, smp] : run.data.imu_samples) {
-        if (sensor != 0) continue;
-        amean += smp.accel;
-        ++n;
-        if (smp.stamp_ns <= last.stamp_ns) { bg_true = smp.bias_gyro; ba_true = smp.bias_accel; }
-      }
-      std::cout << "bg err " << (last.bias_gyro - bg_true).transpose() << " ba err " << (last.bias_accel - ba_true).transpose()
-                << " mean accel " << (amean / n).transpose() << "\n";
-    }
-    double worst = 0.0;
-    for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
-      const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
-      worst = std::max({worst, e.rotation_sigma_ratio.maxCoeff(),
-                        e.translation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio});
-      std::printf("  %s %.4f deg %.3f mm %.4f ms\n", run.truth.cameras[c].name.c_str(), e.rotation_deg, e.translation_mm, e.time_offset_ms);
-    }
-    for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
-      const CameraErrors e = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
-      worst = std::max({worst, e.rotation_sigma_ratio.maxCoeff(),
-                        e.translation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio});
-      std::printf("  %s %.4f deg %.3f mm %.4f ms\n", run.truth.inertial[i].name.c_str(), e.rotation_deg, e.translation_mm, e.time_offset_ms);
-    }
-    std::printf("  spatial worst err/sigma %.2f, %.1f s for %.0f s of data\n", worst, seconds, duration);
+EstimatorOptions intrinsicsOptions(IntrinsicsLinearization mode, double prior_scale) {
+  EstimatorOptions o = deterministic();
+  o.pixel_sigma_px = 0.5;
+  o.estimate_imu_intrinsics = true;
+  o.estimate_gravity_sensitivity = true;
+  o.imu_intrinsics_linearization = mode;
+  // Priors 4x the perturbations' sizes (at least the defaults).
+  o.imu_scale_misalignment_prior = std::max(0.01, 4.0 * prior_scale * 3e-3);
+  o.imu_gravity_sensitivity_prior = std::max(0.002, 4.0 * prior_scale * 1e-3);
+  o.imu_acc_rotation_prior_rad = std::max(0.01, 4.0 * prior_scale * 3e-3);
+  return o;
+}
+
+// Per inertial sensor, its intrinsics errors in the estimate.
+std::vector<IntrinsicsErrors> allErrors(const SimRun& run, const Rig& estimate, const char* what) {
+  std::vector<IntrinsicsErrors> out;
+  for (std::size_t i = 0; i < run.truth.inertial.size(); ++i) {
+    const IntrinsicsErrors g = intrinsicsErrors(run.truth.inertial[i], run.guess.inertial[i]);
+    const IntrinsicsErrors e = intrinsicsErrors(run.truth.inertial[i], estimate.inertial[i]);
+    std::printf("%s %s: Dw/Da %.5f (from %.5f), Tg %.5f (from %.5f), R_IMUtoACC %.4f deg "
+                "(from %.4f), largest error/sigma %.2f\n",
+                what, run.truth.inertial[i].name.c_str(), e.D, g.D, e.Tg, g.Tg, e.rotation,
+                g.rotation, e.sigma);
+    out.push_back(e);
   }
+  return out;
+}
+
+// Issue 8's main case, shortened to 30 s for CI (the 60 s figures are in scripts/bench and the
+// issue's note: every element within 1.2e-3, Tg within 1e-4, R_IMUtoACC within 0.07 deg).
+TEST(Estimator, CalibratesImuIntrinsicsByReintegration) {
+  SimRun run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withIntrinsics);
+  perturbIntrinsics(&run.guess, 7, 1.0);
+  const auto estimator = runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
+  const auto e = allErrors(run, estimate, "re-integrated");
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    const std::string& name = run.truth.inertial[i].name;
+    // Measured at 30 s (seed 7): Dw/Da 1.8e-3 / 0.8e-3 / 0.6e-3 (imu0 / imu1 / imu2, from
+    // 4-5e-3), Tg 1.4e-4 and 1.1e-4 (from 1.4e-3 and 1.9e-3), R_IMUtoACC 0.04 and 0.06 deg (from
+    // 0.26 and 0.33). Bounds 1.5x those.
+    EXPECT_LT(e[i].D, 2.7e-3) << name;
+    EXPECT_LT(e[i].Tg, 2.5e-4) << name;
+    EXPECT_LT(e[i].rotation, 0.1) << name;
+    // The largest of up to 27 |error| / sigma per sensor: 3.5 is its 99% quantile for a
+    // consistent estimate.
+    EXPECT_LT(e[i].sigma, 3.5) << name;
+  }
+  // The spatial calibration as without intrinsics (test_estimator.cpp's bounds for 30 s).
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    const CameraErrors ce = errors(run.truth.cameras[c], estimate.cameras[c]);
+    EXPECT_LT(ce.rotation_deg, 0.05) << run.truth.cameras[c].name;
+    EXPECT_LT(ce.translation_mm, 2.0) << run.truth.cameras[c].name;
+    EXPECT_LT(ce.time_offset_ms, 0.1) << run.truth.cameras[c].name;
+    EXPECT_LT(ce.rotation_sigma_ratio.maxCoeff(), 3.5) << run.truth.cameras[c].name;
+    EXPECT_LT(ce.translation_sigma_ratio.maxCoeff(), 3.5) << run.truth.cameras[c].name;
+  }
+}
+
+// Why re-integration (report Sec. 2.2): with the intrinsics' linearization fixed at the
+// configured values, first order has to carry the whole error. At Table 4's sizes that is
+// enough (the two modes end within noise of each other: 60 s, seed 7, Dw/Da 0.58e-3 vs
+// 0.67e-3); with errors 10x Table 4's (3% scale), it is not.
+TEST(Estimator, FixedIntrinsicsLinearizationEndsWorse) {
+  SimRun run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withIntrinsics);
+  perturbIntrinsics(&run.guess, 7, 10.0);
+  double worst[2] = {0.0, 0.0}, sigma[2] = {0.0, 0.0};
+  for (int m = 0; m < 2; ++m) {
+    const auto mode = m == 0 ? IntrinsicsLinearization::kReintegrate : IntrinsicsLinearization::kFixed;
+    const auto estimator = runFrom(run.guess, run, intrinsicsOptions(mode, 10.0));
+    ASSERT_NE(estimator, nullptr);
+    for (const auto& e : allErrors(run, estimator->calibration(), m == 0 ? "re-integrated" : "fixed")) {
+      worst[m] = std::max(worst[m], e.D);
+      sigma[m] = std::max(sigma[m], e.sigma);
+    }
+  }
+  // Measured: largest Dw/Da error 2.2e-3 re-integrated, 6.6e-3 fixed (from 5e-2); largest
+  // error/sigma 12.6 and 43 (neither consistent at this size after 30 s: the linearized
+  // marginalization prior carries the early, large errors).
+  EXPECT_LT(worst[0], 3.5e-3);
+  EXPECT_GT(worst[1], 2.0 * worst[0]);
+  EXPECT_GT(sigma[1], 2.0 * sigma[0]);
+}
+
+// Report Table 3 on yaw-only motion (about world z, which is nearly imu0's x axis): the rates
+// about imu0's y and z stay near zero, so Dw's columns 2 and 3 (dw12, dw22, dw13, dw23, dw33)
+// are unobservable, and the specific force along x stays near g, so da11 and (with da12, da13)
+// the pitch and yaw of R_IMUtoACC, and Tg's first column, are too. The spatial calibration is
+// given (known) so that only Table 3 is at play.
+TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
+  SimRun run = simulate("sim_vi_rig", 20.0, 7, MotionKind::kYawOnly, false, withIntrinsics);
+  perturbIntrinsics(&run.guess, 7, 1.0);
+  EstimatorOptions options = intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0);
+  options.estimate_extrinsics = options.estimate_time_offsets = false;
+  options.estimate_aux_extrinsics = options.estimate_aux_time_offsets = false;
+  for (std::size_t c = 0; c < run.guess.cameras.size(); ++c) {
+    run.guess.cameras[c].T_cam_imu = run.truth.cameras[c].T_cam_imu;
+    run.guess.cameras[c].timeshift_cam_imu = run.truth.cameras[c].timeshift_cam_imu;
+  }
+  for (std::size_t i = 1; i < run.guess.inertial.size(); ++i) {
+    run.guess.inertial[i].T_i_b = run.truth.inertial[i].T_i_b;
+    run.guess.inertial[i].time_offset = run.truth.inertial[i].time_offset;
+  }
+  auto created = Estimator::create(run.guess, options);
+  ASSERT_TRUE(created.ok());
+  Estimator& estimator = *created.value();
+  EstimatorUpdate last;
+  estimator.setUpdateCallback([&](const EstimatorUpdate& u) { last = u; });
+  feed(run, &estimator);
+  ASSERT_TRUE(estimator.initialized());
+  ASSERT_TRUE(estimator.computeCovariance().ok());
+  const Rig estimate = estimator.calibration();
+  for (const auto& e : allErrors(run, estimate, "yaw only")) EXPECT_LT(e.sigma, 3.5);
+
+  // Reported, in the report's names.
+  std::vector<std::string> imu0;
+  for (const auto& u : last.unobservable) {
+    std::printf("  unobservable: %s\n", u.text().c_str());
+    if (u.sensor == "imu0") imu0.insert(imu0.end(), u.elements.begin(), u.elements.end());
+  }
+  for (const char* element : {"dw12", "dw22", "dw13", "dw23", "dw33", "da11", "tg11", "tg21",
+                              "tg31"}) {
+    EXPECT_NE(std::find(imu0.begin(), imu0.end(), element), imu0.end()) << element;
+  }
+  EXPECT_EQ(std::find(imu0.begin(), imu0.end(), "dw11"), imu0.end());  // rates about x vary
+
+  // They keep their prior (0.012 for Dw, 0.004 for Tg; Tw's std is Dw's to first order),
+  // while what the motion observes shrank (dw11: 0.0015).
+  const InertialCalibrationStd& sd = *estimate.inertial[0].std;
+  for (const auto& [r, c] : {std::pair{0, 1}, {0, 2}, {1, 2}, {2, 2}}) {
+    EXPECT_NEAR(sd.Tw(r, c), 0.012, 0.0012) << r << c;
+  }
+  for (int r = 0; r < 3; ++r) EXPECT_NEAR(sd.Tg(r, 0), 0.004, 4e-4) << r;
+  EXPECT_LT(sd.Tw(0, 0), 0.2 * 0.012);
+  // And they did not move from the guess (held), where the guess was off.
+  const Eigen::Matrix3d moved = estimate.inertial[0].intrinsics.Tw - run.guess.inertial[0].intrinsics.Tw;
+  EXPECT_LT(std::abs(moved(2, 2)), 1e-4);
 }
 
 }  // namespace

@@ -125,6 +125,14 @@ struct EstimatorOptions {
   // 0 turns the check off.
   double observability_ratio = 500.0;
   double observability_horizon_s = 5.0;  // [s]
+  // The same for the IMU intrinsics (report Table 3): a reading component (rate or specific
+  // force along an axis) that stays constant over the horizon cannot be told from the bias, and
+  // the intrinsics it multiplies are unobservable. The measure is the readings' centered second
+  // moments over the horizon (noise taken out), which is what the intrinsics' information is;
+  // as it keeps accumulating over a run, a direction only counts as unobservable when the
+  // horizon tells less than this many times its prior (handheld motion: 2-45 for Da, ~500 for
+  // Dw; constant components: ~0). 0 turns it off.
+  double imu_intrinsics_observability_ratio = 1.0;
 };
 
 // Checked at creation: a clear message naming the option.
@@ -155,12 +163,18 @@ struct SolveSummary {
 struct UnobservableCalibration {
   std::string sensor;    // the sensor's name (cam1, imu2, ...)
   std::string base;      // the base IMU's name, whose frame directions_I are in
-  std::string quantity;  // "rotation", "translation" or "time offset"
+  // "rotation", "translation", "time offset", or of an inertial sensor's intrinsics
+  // "gyroscope scale and misalignment" (Dw), "gravity sensitivity" (Tg) or "accelerometer
+  // intrinsics" (Da with R_IMUtoACC).
+  std::string quantity;
   // Unit directions in the base IMU frame: of the sensor's position (translation) or rotation
   // axes (rotation); empty for a time offset.
   std::vector<Eigen::Vector3d> directions_I;
   // What the recent motion tells about each direction, over what its prior tells.
   std::vector<double> information_ratio;
+  // Intrinsics: per direction the element it mostly moves, as the report names them (dw12 for
+  // Dw's row 1, column 2; da33; tg21; theta_x for R_IMUtoACC about x).
+  std::vector<std::string> elements;
   // In plain words, e.g. "imu1 translation along (0.00, 0.00, 1.00) in imu0: rotate about
   // another axis too".
   std::string text() const;

@@ -48,8 +48,9 @@ Eigen::Matrix3d upperTriangular(const double* d);
 // How a factor with an intrinsics block gets its deltas.
 enum class IntrinsicsLinearization {
   kReintegrate,  // re-integrated at every evaluation (report Sec. 2.2; the default)
-  kFixed,        // first order about the values when the factor was made (Xiao et al.; it
-                 // drifts into a local minimum, kept to show it)
+  kFixed,        // first order about a fixed point, the configured intrinsics (Xiao et al.'s
+                 // preintegration; the report finds it drifts into a local minimum; kept for
+                 // comparison)
 };
 
 // What a sensor's readings are corrected with, besides the block: R0 and whether it is a

@@ -38,7 +38,7 @@ class GyroFactor final : public ceres::CostFunction {
   // `base_j`: the base motion at t_i, t_j.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j);
-  // With the intrinsics block as last parameter (`intrinsics0`: its value now), as ImuFactor.
+  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed), as ImuFactor.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
              IntrinsicsLinearization mode, const double* intrinsics0);

@@ -17,8 +17,8 @@
 //   dR(x) = dR Exp(phi), phi = J_theta (x - x0);  dp(x) = dp + J_p (x - x0);  dv likewise.
 // Without intrinsics x0 is the preintegration's bias linearization point (Eq. 32-34, bias
 // correction); with intrinsics and IntrinsicsLinearization::kReintegrate the readings are
-// re-integrated at x on every evaluation (x0 = x, phi = 0; Sec. 2.2), with kFixed x0 is where
-// the factor was made.
+// re-integrated at x on every evaluation (x0 = x, phi = 0; Sec. 2.2), with kFixed x0 is a fixed
+// point (the configured intrinsics in the estimator).
 //
 // Jacobians in the tangent spaces (right perturbation R Exp(dtheta), p + dp), with
 // E = dR(x)^T R_i^T R_j, e = r_theta:
@@ -46,8 +46,8 @@ class ImuFactor final : public ceres::CostFunction {
   // Readings taken as calibrated. The preintegration is shared, so re-integrating it (new bias
   // linearization point) updates the factor.
   explicit ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration);
-  // With the intrinsics block as sixth parameter; `intrinsics0`: its value now (the
-  // linearization point of kFixed). The preintegration gives the raw readings, the covariance
+  // With the intrinsics block as sixth parameter; `intrinsics0`: the linearization point of
+  // kFixed. The preintegration gives the raw readings, the covariance
   // and (kFixed) the bias linearization point.
   ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration,
             const ImuIntrinsicsFrame& frame, IntrinsicsLinearization mode,

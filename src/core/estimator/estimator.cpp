@@ -78,6 +78,9 @@ Status validate(const EstimatorOptions& o) {
     if (!(v > 0.0)) return bad(key, "must be positive");
   }
   if (o.covariance_every < 0) return bad("covariance_every", "must be zero or positive");
+  if (!(o.imu_intrinsics_observability_ratio >= 0.0)) {
+    return bad("imu_intrinsics_observability_ratio", "must be zero (off) or positive");
+  }
   if (!(o.observability_ratio >= 0.0)) {
     return bad("observability_ratio", "must be zero (off) or positive");
   }
@@ -310,6 +313,7 @@ void Estimator::Impl::resetAll() {
   unobservable.clear();
   uninformative.clear();
   motion_information.clear();
+  for (auto& m : reading_moments) m.clear();
   holds.clear();  // after newProblem(): the old problem no longer uses their manifolds
   clocks_aligned = false;
   initialized = false;

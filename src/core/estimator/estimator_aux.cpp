@@ -254,6 +254,7 @@ void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
   State* sj = states[k + 1].get();
   AuxState* ai = si->aux[idx].get();
   AuxState* aj = sj->aux[idx].get();
+  addReadingMoments(a.sensor, sj->t, pre->samples());
   double* intrinsics = imuIntrinsics(a.sensor);
   const IntrinsicsLinearization mode = options.imu_intrinsics_linearization;
   if (a.gyro) {
@@ -262,7 +263,7 @@ void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
     ceres::CostFunction* cost = nullptr;
     if (intrinsics != nullptr) {
       cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion, mode,
-                            intrinsics);
+                            imu_intrinsics[a.sensor]->initial);
       blocks.push_back(intrinsics);
     } else {
       cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion);
@@ -275,7 +276,8 @@ void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
   ceres::CostFunction* cost = nullptr;
   if (intrinsics != nullptr) {
     cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
-                            sj->motion, imu_intrinsics[a.sensor]->frame, mode, intrinsics);
+                            sj->motion, imu_intrinsics[a.sensor]->frame, mode,
+                            imu_intrinsics[a.sensor]->initial);
     blocks.push_back(intrinsics);
   } else {
     cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,

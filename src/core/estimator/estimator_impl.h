@@ -131,13 +131,26 @@ struct AuxSensor {
 // An inertial sensor's intrinsics block (imu_reintegration.h) while they are estimated.
 struct ImuIntrinsicsBlock {
   double x[kImuIntrinsicsSize];
+  double initial[kImuIntrinsicsSize];  // the configured values (IntrinsicsLinearization::kFixed)
   ImuIntrinsicsFrame frame;
   Eigen::Matrix<double, kImuIntrinsicsSize, 1> prior_std;
   // Holds the entries that are not estimated (a gyroscope's all but Dw; Tg unless gravity
   // sensitivity is estimated); null when every entry is.
   std::unique_ptr<ceres::Manifold> manifold;
+  std::vector<int> free;  // the entries that are estimated: the tangent's directions, in order
   // Latest covariance of the block (ambient; zero rows for the held entries), if computed.
   std::optional<Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize>> covariance;
+};
+
+// Time-weighted moments of one sensor's readings between two window states, for the
+// intrinsics' observability (estimator_observability.cpp).
+struct ReadingMoments {
+  TimeNs t = 0;      // the later state's time
+  double T = 0.0;    // [s] covered
+  int n = 0;         // readings
+  Eigen::Vector3d w = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();  // int x dt
+  Eigen::Matrix3d ww = Eigen::Matrix3d::Zero(), aa = Eigen::Matrix3d::Zero();  // int x x^T dt
+  Eigen::Matrix3d wa = Eigen::Matrix3d::Zero();                                 // int w a^T dt
 };
 
 struct InitFrame {
@@ -166,6 +179,7 @@ using estimator_internal::CameraBlocks;
 using estimator_internal::ImuIntrinsicsBlock;
 using estimator_internal::Clock;
 using estimator_internal::InitFrame;
+using estimator_internal::ReadingMoments;
 using estimator_internal::readingIn;
 using estimator_internal::readingsBetween;
 using estimator_internal::ResidualRecord;
@@ -222,6 +236,9 @@ struct Estimator::Impl {
     double time_offset = 0.0;                               // int |alpha|^2 dt
   };
   std::deque<MotionInformation> motion_information;
+  // Per inertial sensor with estimated intrinsics: its readings' moments over the last
+  // observability_horizon_s (report Table 3).
+  std::vector<std::deque<ReadingMoments>> reading_moments;
   // Calibration blocks held along their unobservable directions (so they cannot drift on what
   // the window's linearization noise says): the block's own manifold, the subspace manifold in
   // use (null: held whole, constant), the held directions and the variance each keeps.
@@ -328,6 +345,12 @@ struct Estimator::Impl {
   void initImuIntrinsics();
   // Adds the estimated sensors' blocks with their priors to the problem.
   void addImuIntrinsicsBlocks();
+  bool isImuIntrinsics(const double* block) const {
+    for (const auto& b : imu_intrinsics) {
+      if (b && b->x == block) return true;
+    }
+    return false;
+  }
   // Sensor i's intrinsics block, or null when they are not estimated.
   double* imuIntrinsics(std::size_t i) const {
     return imu_intrinsics[i] ? imu_intrinsics[i]->x : nullptr;
@@ -414,6 +437,9 @@ struct Estimator::Impl {
   // Adds the motion between states at a and b (base readings, gyro bias) to motion_information.
   void addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vector3d& bias_gyro);
 
+  // Adds sensor i's readings between window states (the later at t) to reading_moments.
+  void addReadingMoments(std::size_t i, TimeNs t, const std::vector<ImuMeasurement>& readings);
+
   // Holds what `uninformative` names and releases what it no longer does.
   void applyHolds();
 
@@ -441,6 +467,9 @@ struct Estimator::Impl {
   // Latest standard deviations of a calibration block in its own tangent (the prior's before
   // any covariance).
   Eigen::VectorXd latestStd(const double* block) const;
+  // The latest tangent covariance of a calibration block: the full one for IMU intrinsics once
+  // computed, else diag(latestStd^2).
+  Eigen::MatrixXd latestCovariance(const double* block) const;
 
   void publish(const SolveSummary& summary, Clock::time_point start);
 

@@ -25,6 +25,7 @@ Correction correctionOf(const ImuIntrinsicsBlock& b) {
 }  // namespace
 
 void Estimator::Impl::initImuIntrinsics() {
+  reading_moments.resize(rig.inertial.size());
   for (const auto& sensor : rig.inertial) {
     const bool gyro = sensor.type == InertialType::kGyroscope;
     const bool estimated = options.estimate_imu_intrinsics && sensor.model == ImuModel::kRpng &&
@@ -38,6 +39,7 @@ void Estimator::Impl::initImuIntrinsics() {
     imu_corrections.emplace_back(ImuIntrinsics());
     auto b = std::make_unique<ImuIntrinsicsBlock>();
     intrinsicsToBlock(sensor.intrinsics, b->x);
+    std::copy(b->x, b->x + kImuIntrinsicsSize, b->initial);
     b->frame.R0 = sensor.intrinsics.R_IMUtoACC.transpose();
     b->frame.gyro_only = gyro;
     // Priors: the configuration's *_std where positive (Dw = Tw^-1 moves as -Tw to first order
@@ -64,7 +66,11 @@ void Estimator::Impl::initImuIntrinsics() {
                          !heldByOption(sensor.name, "gravity_sensitivity");
     for (int k = 0; k < kImuIntrinsicsSize; ++k) {
       const bool tg = k >= L::kTg && k < L::kTg + 9;
-      if ((gyro && k >= L::kDa) || (tg && !gravity)) held.push_back(k);
+      if ((gyro && k >= L::kDa) || (tg && !gravity)) {
+        held.push_back(k);
+      } else {
+        b->free.push_back(k);
+      }
     }
     if (!held.empty()) b->manifold = std::make_unique<ceres::SubsetManifold>(kImuIntrinsicsSize, held);
     imu_intrinsics.push_back(std::move(b));
@@ -107,9 +113,16 @@ void Estimator::Impl::propagationBiases(const Eigen::Vector3d& bg, const Eigen::
 
 void Estimator::Impl::imuIntrinsicsCovariance(const ceres::Covariance& cov) {
   for (auto& b : imu_intrinsics) {
-    if (!b || problem->IsParameterBlockConstant(b->x)) continue;
-    Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize, Eigen::RowMajor> C;
-    if (cov.GetCovarianceBlock(b->x, b->x, C.data())) b->covariance = C;
+    if (!b || !estimated(b->x)) continue;
+    // In the block's own tangent (held directions with the variance they keep), then ambient.
+    const Eigen::MatrixXd C = tangentCovariance(cov, b->x);
+    const std::vector<int>& idx = b->free;
+    Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize> A =
+        Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize>::Zero();
+    for (std::size_t r = 0; r < idx.size(); ++r) {
+      for (std::size_t c = 0; c < idx.size(); ++c) A(idx[r], idx[c]) = C(r, c);
+    }
+    b->covariance = A;
   }
 }
 

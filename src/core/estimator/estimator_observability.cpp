@@ -1,5 +1,6 @@
 // Degenerate-motion awareness (report Sec. 5.1, Table 2; observability.h): which calibration
 // directions the recent motion leaves unobservable, checked before every solve, and holding them.
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <cstdio>
 
@@ -11,7 +12,16 @@ namespace mvis {
 std::string UnobservableCalibration::text() const {
   std::ostringstream s;
   s << sensor << ' ' << quantity;
-  if (directions_I.empty()) {
+  if (!elements.empty()) {
+    s << " (";
+    for (std::size_t k = 0; k < elements.size(); ++k) s << (k ? ", " : "") << elements[k];
+    s << ')';
+    bool rate = false, force = false;
+    for (const auto& e : elements) (e.rfind("dw", 0) == 0 ? rate : force) = true;
+    s << ": vary " << (rate ? "the rate of rotation about" : "")
+      << (rate && force ? ", and " : "") << (force ? "the specific force along" : "")
+      << " each of " << sensor << "'s axes" << (force ? " (tilt the rig, accelerate it)" : "");
+  } else if (directions_I.empty()) {
     s << ": vary the rig's rate of rotation";  // only gyroscope time offsets are checked
   } else if (directions_I.size() == 1) {
     char d[64];
@@ -36,7 +46,32 @@ struct Quantity {
   Eigen::VectorXd prior_std;
   Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
   Eigen::MatrixXd information;
+  std::string symbol = {};     // IMU intrinsics: "gyro" or "accel"
+  std::vector<int> rows = {};      // tangent rows when not offset.. (IMU intrinsics)
+  std::vector<int> elements = {};  // their ambient entries in the intrinsics block
 };
+
+// The intrinsics element a weak direction mostly moves (ambient entries `elements`), as the
+// report writes them: dw12 (Dw row 1, column 2), da33, tg21, and "theta_y" for the
+// accelerometer rotation about y.
+std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd& direction) {
+  int k = 0;
+  direction.cwiseAbs().maxCoeff(&k);
+  using L = ImuIntrinsicsLayout;
+  const int e = elements[k];
+  if (e < L::kTg) {
+    const int u = e < L::kDa ? e - L::kDw : e - L::kDa;
+    int c = 0;
+    while ((c + 1) * (c + 2) / 2 <= u) ++c;
+    const int r = u - c * (c + 1) / 2;
+    return std::string(e < L::kDa ? "dw" : "da") + std::to_string(r + 1) + std::to_string(c + 1);
+  }
+  if (e < L::kAccRotation) {
+    const int u = e - L::kTg;
+    return "tg" + std::to_string(u / 3 + 1) + std::to_string(u % 3 + 1);
+  }
+  return std::string("theta_") + "xyz"[e - L::kAccRotation];
+}
 
 }  // namespace
 
@@ -86,10 +121,36 @@ void Estimator::Impl::addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vect
   }
 }
 
+void Estimator::Impl::addReadingMoments(std::size_t i, TimeNs t,
+                                        const std::vector<ImuMeasurement>& readings) {
+  if (!imu_intrinsics[i] || readings.size() < 2) return;
+  ReadingMoments m;
+  m.t = t;
+  for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
+    const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
+    if (!(dt > 0.0)) continue;
+    const Eigen::Vector3d& w = readings[k].gyro;
+    const Eigen::Vector3d& a = readings[k].accel;
+    m.T += dt;
+    ++m.n;
+    m.w += w * dt;
+    m.a += a * dt;
+    m.ww += w * w.transpose() * dt;
+    m.aa += a * a.transpose() * dt;
+    m.wa += w * a.transpose() * dt;
+  }
+  auto& q = reading_moments[i];
+  q.push_back(m);
+  const TimeNs horizon = fromSeconds(options.observability_horizon_s);
+  while (!q.empty() && q.front().t < t - horizon) q.pop_front();
+}
+
 void Estimator::Impl::checkObservability() {
   unobservable.clear();
   uninformative.clear();
-  if (options.observability_ratio <= 0.0 || motion_information.empty()) {
+  const bool off =
+      options.observability_ratio <= 0.0 && options.imu_intrinsics_observability_ratio <= 0.0;
+  if (off || motion_information.empty()) {
     applyHolds();
     return;
   }
@@ -138,10 +199,126 @@ void Estimator::Impl::checkObservability() {
     }
   }
 
+  // IMU intrinsics (report Table 3). To first order a reading errs by
+  //   gyroscope:      dDw w - dTg a                  (Dw ~ I)
+  //   accelerometer:  (dDa + hat(dtheta)) a = dDa a - hat(a) dtheta
+  // for the rates w and specific forces a, so each output row r has a regressor phi_r over the
+  // elements it involves (Dw's row r and Tg's row r; Da's row r and dtheta). Whatever is
+  // constant over the horizon cannot be told from the bias: the information is
+  // sum_r int (phi_r - mean)(phi_r - mean)^T dt / s^2, from the readings' centered moments
+  // (white noise's share taken out). Da and dtheta are checked together: their null spaces mix
+  // them (a constant a_1 leaves da11 and, with da12 and da13, the pitch and yaw of R_IMUtoACC
+  // unobservable). Dw and Tg are checked apart, neglecting the cross-moment of w and a: held
+  // directions mixing elements of different prior sizes would keep a wrong variance (the hold
+  // keeps the held subspace's variance and conditions the rest on it).
+  for (std::size_t i = 0; i < imu_intrinsics.size(); ++i) {
+    ImuIntrinsicsBlock* b = imu_intrinsics[i].get();
+    if (b == nullptr || !estimated(b->x) || reading_moments[i].empty() ||
+        !(options.imu_intrinsics_observability_ratio > 0.0)) {
+      continue;
+    }
+    ReadingMoments m;
+    for (const auto& r : reading_moments[i]) {
+      m.T += r.T;
+      m.n += r.n;
+      m.w += r.w;
+      m.a += r.a;
+      m.ww += r.ww;
+      m.aa += r.aa;
+      m.wa += r.wa;
+    }
+    if (!(m.T > 0.0)) continue;
+    const ImuNoise& noise = rig.inertial[i].noise;
+    const double sg = noise.gyroscope_noise_density, sa = noise.accelerometer_noise_density;
+    const bool accel = !b->frame.gyro_only && sa > 0.0;
+    // Centered second moments of z = [w; a].
+    Eigen::Matrix<double, 6, 6> C;
+    const Eigen::Matrix<double, 6, 1> mean = (Eigen::Matrix<double, 6, 1>() << m.w, m.a).finished();
+    C << m.ww, m.wa, m.wa.transpose(), m.aa;
+    C -= mean * mean.transpose() / m.T;
+    C.topLeftCorner<3, 3>() -= m.n * sg * sg * Eigen::Matrix3d::Identity();
+    C.bottomRightCorner<3, 3>() -= m.n * sa * sa * Eigen::Matrix3d::Identity();
+    using L = ImuIntrinsicsLayout;
+    // Tangent position of an ambient entry (-1: held by the block's own manifold).
+    const auto tangentOf = [&](int ambient) {
+      const auto it = std::find(b->free.begin(), b->free.end(), ambient);
+      return it == b->free.end() ? -1 : static_cast<int>(it - b->free.begin());
+    };
+    // One channel: per output row, (element, linear map from z to its regressor) pairs.
+    struct Term {
+      int element;                   // ambient index in the block
+      Eigen::Matrix<double, 1, 6> g;  // regressor = g z
+    };
+    const auto addChannel = [&](const std::vector<std::vector<Term>>& rows, double density,
+                                const char* quantity, const char* symbol) {
+      std::vector<int> elements;  // ambient, free, in block order
+      for (const auto& row : rows) {
+        for (const auto& t : row) {
+          if (tangentOf(t.element) >= 0 &&
+              std::find(elements.begin(), elements.end(), t.element) == elements.end()) {
+            elements.push_back(t.element);
+          }
+        }
+      }
+      std::sort(elements.begin(), elements.end());
+      const int n = static_cast<int>(elements.size());
+      if (n == 0 || !(density > 0.0)) return;
+      Eigen::MatrixXd I = Eigen::MatrixXd::Zero(n, n);
+      for (const auto& row : rows) {
+        Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, 6);
+        for (const auto& t : row) {
+          const auto at = std::find(elements.begin(), elements.end(), t.element);
+          if (at != elements.end()) G.row(at - elements.begin()) += t.g;
+        }
+        I += G * C * G.transpose() / (density * density);
+      }
+      Quantity q{rig.inertial[i].name, quantity, b->x, 0, n, Eigen::VectorXd(n), Eigen::Matrix3d::Identity(), I};
+      q.symbol = symbol;
+      for (int k = 0; k < n; ++k) {
+        q.prior_std[k] = b->prior_std[elements[k]];
+        q.rows.push_back(tangentOf(elements[k]));
+        q.elements.push_back(elements[k]);
+      }
+      quantities.push_back(q);
+    };
+    const auto unit = [](int k) {
+      Eigen::Matrix<double, 1, 6> g = Eigen::Matrix<double, 1, 6>::Zero();
+      g[k] = 1.0;
+      return g;
+    };
+    std::vector<std::vector<Term>> gyro(3), gravity(3), acc(3);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = r; c < 3; ++c) {
+        gyro[r].push_back({L::kDw + c * (c + 1) / 2 + r, unit(c)});
+        acc[r].push_back({L::kDa + c * (c + 1) / 2 + r, unit(3 + c)});
+      }
+      for (int c = 0; c < 3; ++c) gravity[r].push_back({L::kTg + 3 * r + c, -unit(3 + c)});
+      // Row r of -hat(a): the regressor of dtheta_k is -(e_r x e_k) . a.
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d e = -Eigen::Vector3d::Unit(r).cross(Eigen::Vector3d::Unit(k));
+        Eigen::Matrix<double, 1, 6> g = Eigen::Matrix<double, 1, 6>::Zero();
+        g.tail<3>() = e.transpose();
+        acc[r].push_back({L::kAccRotation + k, g});
+      }
+    }
+    addChannel(gyro, sg, "gyroscope scale and misalignment", "gyro");
+    if (!accel) continue;
+    addChannel(gravity, sg, "gravity sensitivity", "gravity");
+    addChannel(acc, sa, "accelerometer intrinsics", "accel");
+  }
+
   for (const auto& q : quantities) {
     const Eigen::MatrixXd S = q.prior_std.asDiagonal();
-    const WeakDirections weak =
-        weakDirections(S * q.information * S, q.prior_std, options.observability_ratio);
+    // IMU intrinsics: a block already held is released only when the motion tells 4x the ratio
+    // (hysteresis). Their gains hover near the ratio when a reading component is only nearly
+    // constant, and each release leaves a direction free with little information in the window
+    // (what left it while held added none), where it moves on noise before it is held again.
+    const double ratio = q.symbol.empty() ? options.observability_ratio
+                         : holds.count(q.block) ? 4.0 * options.imu_intrinsics_observability_ratio
+                                                : options.imu_intrinsics_observability_ratio;
+    if (!(ratio > 0.0)) continue;
+    const WeakDirections weak = weakDirections(S * q.information * S, q.prior_std, ratio);
+    if (getenv("MVIS_DEBUG_OBS") && !q.symbol.empty()) fprintf(stderr, "obs %s %s %d\n", q.sensor.c_str(), q.symbol.c_str(), (int)weak.directions.cols());
     if (weak.directions.cols() == 0) continue;
     UnobservableCalibration u;
     u.sensor = q.sensor;
@@ -149,6 +326,10 @@ void Estimator::Impl::checkObservability() {
     u.quantity = q.name;
     for (int c = 0; c < weak.directions.cols(); ++c) {
       u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
+      if (!q.symbol.empty()) {
+        u.elements.push_back(elementName(q.elements, weak.directions.col(c)));
+        continue;
+      }
       if (q.size != 3) continue;
       Eigen::Vector3d d = q.to_I * weak.directions.col(c);
       int largest = 0;
@@ -160,12 +341,18 @@ void Estimator::Impl::checkObservability() {
     // The block's tangent directions (disjoint rows per quantity, so the columns stay
     // orthonormal).
     const ceres::Manifold* own = baseManifold(q.block);
-    const int tangent = own != nullptr ? own->TangentSize() : q.size;
+    const int tangent = own != nullptr ? own->TangentSize() : problem->ParameterBlockSize(q.block);
     Eigen::MatrixXd& D = uninformative[q.block];
     const auto old = D.cols();
     D.conservativeResize(tangent, old + weak.directions.cols());
     D.rightCols(weak.directions.cols()).setZero();
-    D.block(q.offset, old, q.size, weak.directions.cols()) = weak.directions;
+    if (q.rows.empty()) {
+      D.block(q.offset, old, q.size, weak.directions.cols()) = weak.directions;
+    } else {
+      for (int k = 0; k < q.size; ++k) {
+        D.block(q.rows[k], old, 1, weak.directions.cols()) = weak.directions.row(k);
+      }
+    }
   }
   applyHolds();
 }
@@ -204,7 +391,30 @@ Eigen::VectorXd Estimator::Impl::latestStd(const double* block) const {
       return sd;
     }
   }
+  for (const auto& b : imu_intrinsics) {
+    if (!b || block != b->x) continue;
+    Eigen::VectorXd sd(b->free.size());
+    for (std::size_t k = 0; k < b->free.size(); ++k) {
+      const int e = b->free[k];
+      sd[k] = b->covariance && (*b->covariance)(e, e) > 0.0 ? std::sqrt((*b->covariance)(e, e))
+                                                            : b->prior_std[e];
+    }
+    return sd;
+  }
   return Eigen::VectorXd();
+}
+
+Eigen::MatrixXd Estimator::Impl::latestCovariance(const double* block) const {
+  for (const auto& b : imu_intrinsics) {
+    if (!b || block != b->x || !b->covariance) continue;
+    const auto n = static_cast<int>(b->free.size());
+    Eigen::MatrixXd C(n, n);
+    for (int r = 0; r < n; ++r) {
+      for (int c = 0; c < n; ++c) C(r, c) = (*b->covariance)(b->free[r], b->free[c]);
+    }
+    return C;
+  }
+  return Eigen::MatrixXd(latestStd(block).cwiseAbs2().asDiagonal());
 }
 
 void Estimator::Impl::applyHolds() {
@@ -225,19 +435,24 @@ void Estimator::Impl::applyHolds() {
   for (const auto& [const_block, D] : uninformative) {
     double* block = const_cast<double*>(const_block);
     auto existing = holds.find(block);
-    if (existing != holds.end() && existing->second.directions.cols() == D.cols() &&
-        (existing->second.directions - D).norm() < 1e-9) {
-      continue;  // held as it is
+    if (existing != holds.end() && existing->second.directions.cols() == D.cols()) {
+      // The same subspace: held as it is. IMU intrinsics' weak directions wobble from solve to
+      // solve with the readings' moments (mixtures of elements when an axis is only nearly
+      // constant); re-holding them every time would move the block along the old directions
+      // and re-estimate their variance, so a subspace within ~0.1 rad counts as the same.
+      const Eigen::MatrixXd& E = existing->second.directions;
+      const double change = (E * E.transpose() - D * D.transpose()).norm();
+      if (change < (isImuIntrinsics(block) ? 0.1 : 1e-9)) continue;
     }
     Hold hold;
     hold.base = existing != holds.end() ? existing->second.base
                                         : const_cast<ceres::Manifold*>(problem->GetManifold(block));
-    hold.directions = D;
-    const Eigen::VectorXd sd = latestStd(block);
-    hold.variance.resize(D.cols());
-    for (int c = 0; c < D.cols(); ++c) {
-      hold.variance[c] = D.col(c).cwiseAbs2().dot(sd.cwiseAbs2());
-    }
+    // The held subspace keeps the latest covariance there, D^T Sigma D; its basis is turned to
+    // that matrix's eigenvectors so the kept variances are exact per direction.
+    const Eigen::MatrixXd kept = D.transpose() * latestCovariance(block) * D;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (kept + kept.transpose()));
+    hold.directions = D * eig.eigenvectors();
+    hold.variance = eig.eigenvalues().cwiseMax(0.0);
     const int tangent = static_cast<int>(D.rows());
     const bool was_constant = existing != holds.end() && !existing->second.subspace;
     if (D.cols() >= tangent) {

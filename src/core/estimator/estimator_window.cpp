@@ -156,6 +156,7 @@ void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
 void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre) {
   State* a = states[k].get();
   State* b = states[k + 1].get();
+  addReadingMoments(0, b->t, pre->samples());
   double* intrinsics = imuIntrinsics(0);
   if (intrinsics == nullptr) {
     addRecord(a, new ImuFactor(std::move(pre)), nullptr,
@@ -164,7 +165,7 @@ void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPrein
   }
   addRecord(a,
             new ImuFactor(std::move(pre), imu_intrinsics[0]->frame,
-                          options.imu_intrinsics_linearization, intrinsics),
+                          options.imu_intrinsics_linearization, imu_intrinsics[0]->initial),
             nullptr, {a->pose, a->speed_bias, b->pose, b->speed_bias, gravity, intrinsics});
 }
 
