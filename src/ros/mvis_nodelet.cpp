@@ -109,12 +109,15 @@ void MvisNodelet::onInit() {
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
     eo.estimate_aux_time_offsets = options_.estimate_aux_time_offsets;
     eo.estimate_intrinsics = options_.estimate_intrinsics;
+    eo.estimate_imu_intrinsics = options_.estimate_imu_intrinsics;
+    eo.estimate_gravity_sensitivity = options_.estimate_gravity_sensitivity;
     eo.hold = options_.hold;
     eo.aux_imu_model = options_.aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity
                                                                   : AuxImuModel::kVelocityState;
     eo.max_iterations = options_.max_iterations;
     eo.solve_every = options_.solve_every;
     eo.observability_ratio = options_.observability_ratio;
+    eo.imu_intrinsics_observability_ratio = options_.imu_intrinsics_observability_ratio;
     eo.observability_horizon_s = options_.observability_horizon_s;
     eo.threads = options_.solver_threads;
     auto estimator = Estimator::create(rig_, eo);

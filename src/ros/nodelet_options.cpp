@@ -21,12 +21,17 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
   nh.param("estimate_aux_time_offsets", o.estimate_aux_time_offsets, o.estimate_aux_time_offsets);
   nh.param("estimate_intrinsics", o.estimate_intrinsics, o.estimate_intrinsics);
+  nh.param("estimate_imu_intrinsics", o.estimate_imu_intrinsics, o.estimate_imu_intrinsics);
+  nh.param("estimate_gravity_sensitivity", o.estimate_gravity_sensitivity,
+           o.estimate_gravity_sensitivity);
   nh.param("hold", o.hold, o.hold);
   nh.param("aux_imu_model", o.aux_imu_model, o.aux_imu_model);
   nh.param("max_iterations", o.max_iterations, o.max_iterations);
   nh.param("solve_every", o.solve_every, o.solve_every);
   nh.param("observability_ratio", o.observability_ratio, o.observability_ratio);
   nh.param("observability_horizon", o.observability_horizon_s, o.observability_horizon_s);
+  nh.param("imu_intrinsics_observability_ratio", o.imu_intrinsics_observability_ratio,
+           o.imu_intrinsics_observability_ratio);
   nh.param("solver_threads", o.solver_threads, o.solver_threads);
   nh.param("result_dir", o.result_dir, o.result_dir);
   return o;
@@ -52,6 +57,9 @@ std::string NodeletOptions::validate() const {
   if (window_size < 3) return "parameter ~window_size must be >= 3";
   if (!(observability_ratio >= 0.0)) {
     return "parameter ~observability_ratio must be >= 0 (0 turns the check off)";
+  }
+  if (!(imu_intrinsics_observability_ratio >= 0.0)) {
+    return "parameter ~imu_intrinsics_observability_ratio must be >= 0 (0 turns it off)";
   }
   if (!(observability_horizon_s > 0.0)) return "parameter ~observability_horizon must be positive";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";

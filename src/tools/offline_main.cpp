@@ -1,7 +1,9 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
-//              [--estimate-intrinsics] [--hold SENSOR.QUANTITY]...
+//              [--estimate-intrinsics] [--estimate-imu-intrinsics]
+//              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
+//              [--hold SENSOR.QUANTITY]...
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -29,7 +31,8 @@ int usage(const char* message) {
                "                    [--max-iterations N] [--solve-every N]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
-               "                    [--hold SENSOR.QUANTITY]...\n"
+               "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
+               "                    [--fixed-imu-linearization] [--hold SENSOR.QUANTITY]...\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
@@ -46,8 +49,14 @@ int usage(const char* message) {
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
                "                   0: off; see config/mvis.yaml)\n"
                "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n"
+               "  --estimate-imu-intrinsics  calibrate Dw, Da, R_IMUtoACC of every rpng\n"
+               "                   inertial sensor (a gyroscope's Dw), re-integrating\n"
+               "  --estimate-gravity-sensitivity  and their Tg\n"
+               "  --fixed-imu-linearization  first order about the configured IMU intrinsics\n"
+               "                   instead of re-integrating (for comparison)\n"
                "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
-               "                   intrinsics) at its configured value; repeatable\n",
+               "                   intrinsics, gravity_sensitivity) at its configured value;\n"
+               "                   repeatable\n",
                message);
   return 2;
 }
@@ -65,6 +74,8 @@ int main(int argc, char** argv) {
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
   bool estimate_intrinsics = false;
+  bool estimate_imu_intrinsics = false, estimate_gravity_sensitivity = false;
+  bool fixed_imu_linearization = false;
   std::vector<std::string> hold;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   int window = mvis::EstimatorOptions{}.window_size;
@@ -116,6 +127,12 @@ int main(int argc, char** argv) {
       observability_ratio = std::atof(v.c_str());
     } else if (arg == "--estimate-intrinsics") {
       estimate_intrinsics = true;
+    } else if (arg == "--estimate-imu-intrinsics") {
+      estimate_imu_intrinsics = true;
+    } else if (arg == "--estimate-gravity-sensitivity") {
+      estimate_gravity_sensitivity = true;
+    } else if (arg == "--fixed-imu-linearization") {
+      fixed_imu_linearization = true;
     } else if (arg == "--hold") {
       std::string v;
       if (!value(&v)) return usage("--hold takes SENSOR.QUANTITY, e.g. cam1.intrinsics");
@@ -160,6 +177,11 @@ int main(int argc, char** argv) {
                                         : mvis::AuxImuModel::kVelocityState;
   options.estimator.observability_ratio = observability_ratio;
   options.estimator.estimate_intrinsics = estimate_intrinsics;
+  options.estimator.estimate_imu_intrinsics = estimate_imu_intrinsics;
+  options.estimator.estimate_gravity_sensitivity = estimate_gravity_sensitivity;
+  if (fixed_imu_linearization) {
+    options.estimator.imu_intrinsics_linearization = mvis::IntrinsicsLinearization::kFixed;
+  }
   options.estimator.hold = hold;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;

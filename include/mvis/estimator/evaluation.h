@@ -33,7 +33,8 @@ CameraCalibrationError inertialError(const InertialSensor& truth, const Inertial
 // guess's error, the estimate's error and the estimate's 3-sigma bound when `truth` is given;
 // otherwise the estimate and its 3-sigma. Cameras whose intrinsics were estimated add rows for
 // the focal lengths, the centre and the distortion coefficients: the largest |error| of each
-// group and the largest 3 sigma.
+// group and the largest 3 sigma; inertial sensors (imu0 too) whose intrinsics were estimated
+// add rows for Dw and Da (largest element error, in 1e-3), Tg and R_IMUtoACC.
 std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig* truth);
 
 }  // namespace mvis

@@ -32,6 +32,8 @@ double positionRmse(const std::vector<EstimatorState>& estimate,
 
 namespace {
 
+constexpr double kDeg = 180.0 / M_PI;
+
 // A sensor's extrinsic and time offset in a common shape: T (T_cam_imu or T_i_b), the offset
 // and their standard deviations.
 struct SpatialTemporal {
@@ -91,7 +93,6 @@ std::string row(const char* sensor, const char* quantity, double a, double b, do
 
 std::string rows(const SpatialTemporal& ini, const SpatialTemporal& est,
                  const SpatialTemporal* truth) {
-  constexpr double kDeg = 180.0 / M_PI;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const char* name = est.name.c_str();
   const bool has_std = est.has_std;
@@ -159,6 +160,49 @@ std::string intrinsicRows(const Camera& ini, const Camera& est, const Camera* tr
   return out;
 }
 
+// IMU intrinsics rows of an inertial sensor whose intrinsics were estimated (nonzero Tw_std):
+// the largest |error| (or change) of a Dw or Da element (what the report estimates; their
+// standard deviations are Tw's and Ta's to first order), of a Tg element, and the angle of
+// R_IMUtoACC.
+std::string imuIntrinsicRows(const InertialSensor& ini, const InertialSensor& est,
+                             const InertialSensor* truth) {
+  if (!est.std || (est.std->Tw.array() == 0.0).all()) return "";
+  const bool gyro = est.type == InertialType::kGyroscope;
+  const ImuIntrinsics& x = est.intrinsics;
+  const ImuIntrinsics& ref = truth != nullptr ? truth->intrinsics : ini.intrinsics;
+  const InertialCalibrationStd& sd = *est.std;
+  const auto dD = [&](const ImuIntrinsics& a) {
+    Eigen::Matrix<double, 3, 6> d;
+    d << a.Tw.inverse() - ref.Tw.inverse(), (gyro ? Eigen::Matrix3d::Zero()
+                                                  : Eigen::Matrix3d(a.Ta.inverse() - ref.Ta.inverse()));
+    return d.cwiseAbs().maxCoeff();
+  };
+  const auto within = [](const Eigen::Matrix3d& err, const Eigen::Matrix3d& s) {
+    return (err.array().abs() <= 3.0 * s.array() + 1e-15).all();
+  };
+  const char* name = est.name.c_str();
+  const bool compare = truth != nullptr;
+  const auto status = [&](bool inside) { return compare ? (inside ? "yes" : "no") : "(change from initial)"; };
+  std::string out;
+  out += row(name, "Dw, Da [1e-3]", compare ? dD(ini.intrinsics) * 1e3 : 0.0, dD(x) * 1e3,
+             3e3 * std::max(sd.Tw.maxCoeff(), gyro ? 0.0 : sd.Ta.maxCoeff()),
+             status(within(x.Tw - ref.Tw, sd.Tw) && (gyro || within(x.Ta - ref.Ta, sd.Ta))));
+  if (gyro) return out;
+  if (sd.Tg.maxCoeff() > 0.0) {
+    out += row(name, "Tg [1e-3]", compare ? (ini.intrinsics.Tg - ref.Tg).cwiseAbs().maxCoeff() * 1e3 : 0.0,
+               (x.Tg - ref.Tg).cwiseAbs().maxCoeff() * 1e3, 3e3 * sd.Tg.maxCoeff(),
+               status(within(x.Tg - ref.Tg, sd.Tg)));
+  }
+  const auto angle = [&](const Eigen::Matrix3d& R) {
+    return lie::logSO3(ref.R_IMUtoACC.transpose() * R);
+  };
+  const Eigen::Vector3d e1 = angle(x.R_IMUtoACC);
+  out += row(name, "R_IMUtoACC [deg]", compare ? angle(ini.intrinsics.R_IMUtoACC).norm() * kDeg : 0.0,
+             e1.norm() * kDeg, 3.0 * sd.R_IMUtoACC.maxCoeff() * kDeg,
+             status((e1.array().abs() <= 3.0 * sd.R_IMUtoACC.array()).all()));
+  return out;
+}
+
 }  // namespace
 
 CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate) {
@@ -186,10 +230,14 @@ std::string calibrationTable(const Rig& initial, const Rig& estimate, const Rig*
     out += intrinsicRows(initial.cameras[c], estimate.cameras[c],
                          truth ? &truth->cameras[c] : nullptr);
   }
-  for (std::size_t i = 1; i < estimate.inertial.size(); ++i) {
-    const SpatialTemporal t = truth ? ofInertial(truth->inertial[i]) : SpatialTemporal{};
-    out += rows(ofInertial(initial.inertial[i]), ofInertial(estimate.inertial[i]),
-                truth ? &t : nullptr);
+  for (std::size_t i = 0; i < estimate.inertial.size(); ++i) {
+    if (i > 0) {
+      const SpatialTemporal t = truth ? ofInertial(truth->inertial[i]) : SpatialTemporal{};
+      out += rows(ofInertial(initial.inertial[i]), ofInertial(estimate.inertial[i]),
+                  truth ? &t : nullptr);
+    }
+    out += imuIntrinsicRows(initial.inertial[i], estimate.inertial[i],
+                            truth ? &truth->inertial[i] : nullptr);
   }
   return out;
 }

@@ -156,7 +156,14 @@ Rig perturbRig(const Rig& truth, const PerturbationSizes& sizes, std::uint64_t s
       s.T_i_b = perturbPose(s.T_i_b, sizes.aux_rotation_rad, sizes.aux_translation_m);
       s.time_offset += sizes.aux_time_offset_s * normal(rng);
     }
-    if (s.model == ImuModel::kRpng) {
+    if (s.model == ImuModel::kRpng && s.type == InertialType::kGyroscope) {
+      // A gyroscope has Tw only (no accelerometer for Ta, R_IMUtoACC and Tg).
+      for (int r = 0; r < 3; ++r) {
+        for (int c = r; c < 3; ++c) {
+          s.intrinsics.Tw(r, c) += sizes.imu_scale_misalignment * normal(rng);
+        }
+      }
+    } else if (s.model == ImuModel::kRpng) {
       for (Eigen::Matrix3d* T : {&s.intrinsics.Tw, &s.intrinsics.Ta}) {
         for (int r = 0; r < 3; ++r) {
           for (int c = r; c < 3; ++c) (*T)(r, c) += sizes.imu_scale_misalignment * normal(rng);
