@@ -99,14 +99,19 @@ def read_tum(path):
             np.array(rotations).reshape(-1, 3, 3))
 
 
+UPPER = ("11", "12", "22", "13", "23", "33")  # upper-triangular elements, column-wise
+IMU_INTRINSIC_KEYS = (["tw" + e for e in UPPER] + ["ta" + e for e in UPPER] +
+                      ["tg%d%d" % (r + 1, c + 1) for r in range(3) for c in range(3)] +
+                      ["acc_rx", "acc_ry", "acc_rz"])
 CALIBRATION_KEYS = ["rx", "ry", "rz", "px", "py", "pz", "time_offset",
-                    "fu", "fv", "pu", "pv", "k1", "k2", "k3", "k4"]
+                    "fu", "fv", "pu", "pv", "k1", "k2", "k3", "k4"] + IMU_INTRINSIC_KEYS
 
 
 def read_calibration_csv(path):
-    """{sensor: {"kind", "t" [ns], "value" (n x 15), "std" (n x 15)}} in file order; columns
-    [rx ry rz px py pz time_offset fu fv pu pv k1 k2 k3 k4] (nan where a file has no such
-    column or the sensor no such quantity)."""
+    """{sensor: {"kind", "t" [ns], "value" (n x 39), "std" (n x 39)}} in file order; columns
+    CALIBRATION_KEYS: [rx ry rz px py pz time_offset fu fv pu pv k1 k2 k3 k4], then an rpng
+    inertial sensor's Tw, Ta (upper triangular), Tg and Log(R_IMUtoACC) (nan where a file has no
+    such column or the sensor no such quantity)."""
     out = {}
     with open(path) as f:
         for row in csv.DictReader(f):
@@ -149,21 +154,37 @@ def matrix4(rows):
 
 def read_truth_calibration(truth_dir):
     """{sensor: (R, p, time_offset, intrinsics)}: T_cam_imu of cameras with [fu fv pu pv] and
-    distortion_coeffs (8 values), T_i_b of IMUs and gyroscopes (intrinsics all nan)."""
+    distortion_coeffs, T_i_b of IMUs and gyroscopes with their rpng intrinsics (Tw, Ta upper
+    triangular, Tg, R_IMUtoACC as a 3x3 matrix in the last three entries' place: see
+    calibration_errors); 32 values, nan where the sensor has none."""
     out = {}
     with open(os.path.join(truth_dir, "kalibr_imucam_chain.yaml")) as f:
         for name, cam in (yaml.safe_load(f) or {}).items():
             R, p = matrix4(cam["T_cam_imu"])
             intrinsics = np.array(list(cam.get("intrinsics", [math.nan] * 4)) +
                                   list(cam.get("distortion_coeffs", [math.nan] * 4)), dtype=float)
+            intrinsics = np.concatenate([intrinsics, np.full(24, math.nan)])
             out[name] = (R, p, float(cam.get("timeshift_cam_imu", 0.0)), intrinsics)
     path = os.path.join(truth_dir, "kalibr_imu_chain.yaml")
     if os.path.exists(path):
         with open(path) as f:
             for name, imu in (yaml.safe_load(f) or {}).items():
-                R, p = matrix4(imu["T_i_b"])
-                out[name] = (R, p, float(imu.get("time_offset", 0.0)), np.full(8, math.nan))
+                R, p = matrix4(imu.get("T_i_b", np.eye(4).tolist()))
+                intrinsics = np.full(32, math.nan)
+                intrinsics[8:32] = imu_intrinsic_values(imu)
+                out[name] = (R, p, float(imu.get("time_offset", 0.0)), intrinsics)
     return out
+
+
+def imu_intrinsic_values(imu):
+    """The 24 IMU intrinsics columns of a kalibr_imu_chain.yaml entry (identity when absent)."""
+    def mat(key, default):
+        return np.array(imu.get(key, default), dtype=float)
+    Tw, Ta = mat("Tw", np.eye(3)), mat("Ta", np.eye(3))
+    Tg, R = mat("Tg", np.zeros((3, 3))), mat("R_IMUtoACC", np.eye(3))
+    upper = [(0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2)]
+    return np.array([Tw[e] for e in upper] + [Ta[e] for e in upper] + list(Tg.reshape(9)) +
+                    list(log_so3(R)))
 
 
 # ---------------------------------------------------------------- calibration errors
@@ -173,14 +194,18 @@ QUANTITIES = (("rotation", slice(0, 3), 180.0 / math.pi, "deg"),
               ("time offset", slice(6, 7), 1e3, "ms"))
 INTRINSICS = (("focal lengths", slice(7, 9), 1.0, "px"),
               ("centre", slice(9, 11), 1.0, "px"),
-              ("distortion", slice(11, 15), 1.0, "-"))
+              ("distortion", slice(11, 15), 1.0, "-"),
+              ("Tw", slice(15, 21), 1e3, "1e-3"),
+              ("Ta", slice(21, 27), 1e3, "1e-3"),
+              ("Tg", slice(27, 36), 1e3, "1e-3"),
+              ("R_IMUtoACC", slice(36, 39), 180.0 / math.pi, "deg"))
 AXES = "xyz"
 
 
 def calibration_errors(history, truth):
-    """Per sensor: {"kind", "t" [s from the first row], "error" (n x 15: rotation [rad],
-    translation [m], time offset [s], intrinsics [px] and distortion), "std" (n x 15)} for the
-    sensors that have a truth."""
+    """Per sensor: {"kind", "t" [s from the first row], "error" (n x 39: rotation [rad],
+    translation [m], time offset [s], intrinsics [px] and distortion, IMU intrinsics), "std"
+    (n x 39)} for the sensors that have a truth."""
     out = {}
     t0 = min(h["t"][0] for h in history.values())
     for name, h in history.items():
@@ -192,7 +217,12 @@ def calibration_errors(history, truth):
             err[i, 0:3] = rotation_error(R_t, exp_so3(v[0:3]))
             err[i, 3:6] = p_t - v[3:6]
             err[i, 6] = td_t - v[6]
-            err[i, 7:15] = intrinsics_t - v[7:15]
+            err[i, 7:36] = intrinsics_t[0:29] - v[7:36]
+            # The accelerometer rotation's error in the estimate's tangent, as the extrinsics'.
+            if not (np.any(np.isnan(intrinsics_t[29:32])) or np.any(np.isnan(v[36:39]))):
+                err[i, 36:39] = rotation_error(exp_so3(intrinsics_t[29:32]), exp_so3(v[36:39]))
+            else:
+                err[i, 36:39] = math.nan
         out[name] = {"kind": h["kind"], "t": (h["t"] - t0) * 1e-9, "error": err, "std": h["std"]}
     return out
 
@@ -417,35 +447,42 @@ def plot_errors(runs, path, title):
 
 
 INTRINSIC_NAMES = ("fu", "fv", "pu", "pv", "k1", "k2", "k3", "k4")
+# A camera's: (first column, labels, grid rows, columns, scale, unit of the first four).
+CAMERA_INTRINSICS = (7, INTRINSIC_NAMES, 2, 4, [1.0] * 8, ["px"] * 4 + [""] * 4)
+# An rpng inertial sensor's: Tw, Ta, Tg [1e-3] and R_IMUtoACC [deg].
+IMU_INTRINSICS = (15, IMU_INTRINSIC_KEYS, 4, 6, [1e3] * 21 + [180.0 / math.pi] * 3,
+                  ["1e-3"] * 21 + ["deg"] * 3)
 
 
-def intrinsics_estimated(run):
-    return bool(np.any(run["std"][:, 7:15] > 0.0))
+def intrinsics_estimated(run, kind=CAMERA_INTRINSICS):
+    first, labels = kind[0], kind[1]
+    return bool(np.any(run["std"][:, first:first + len(labels)] > 0.0))
 
 
-def plot_intrinsics(runs, path, title):
-    """A camera's intrinsics [px] and distortion coefficients: error and +-3 sigma over time for
-    every run, one panel per parameter."""
+def plot_intrinsics(runs, path, title, kind=CAMERA_INTRINSICS):
+    """Intrinsics (a camera's [px] and distortion coefficients, or an IMU's Tw, Ta, Tg,
+    R_IMUtoACC): error and +-3 sigma over time for every run, one panel per parameter."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 4, figsize=(14, 5.2), sharex=True)
+    first, labels, n_rows, n_cols, scales, units = kind
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.5 * n_cols, 2.6 * n_rows), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for k, label in enumerate(INTRINSIC_NAMES):
-        ax = axes[k // 4][k % 4]
-        col = 7 + k
+    for k, label in enumerate(labels):
+        ax = axes[k // n_cols][k % n_cols]
+        col, scale = first + k, scales[k]
         for i, run in enumerate(runs):
             c = colors[i % len(colors)]
-            ax.plot(run["t"], run["error"][:, col], color=c, lw=1.0)
-            ax.plot(run["t"], 3.0 * run["std"][:, col], color=c, lw=0.8, ls="--")
-            ax.plot(run["t"], -3.0 * run["std"][:, col], color=c, lw=0.8, ls="--")
-        ax.set_ylabel("%s%s" % (label, " [px]" if k < 4 else ""))
+            ax.plot(run["t"], scale * run["error"][:, col], color=c, lw=1.0)
+            ax.plot(run["t"], 3.0 * scale * run["std"][:, col], color=c, lw=0.8, ls="--")
+            ax.plot(run["t"], -3.0 * scale * run["std"][:, col], color=c, lw=0.8, ls="--")
+        ax.set_ylabel("%s%s" % (label, " [%s]" % units[k] if units[k] else ""))
         ax.grid(True, alpha=0.3)
         tail = [np.nanmax(np.abs(np.concatenate([r["error"][len(r["t"]) // 5:, col],
                                                  3.0 * r["std"][len(r["t"]) // 5:, col]])))
                 for r in runs]
-        lim = 1.3 * np.nanmax(tail)
+        lim = 1.3 * scale * np.nanmax(tail)
         if np.isfinite(lim) and lim > 0:
             ax.set_ylim(-lim, lim)
     for ax in axes[-1]:
@@ -462,10 +499,14 @@ def evaluate(result_dir, truth_dir, out_dir):
     history = read_calibration_csv(os.path.join(result_dir, "calibration.csv"))
     errors = calibration_errors(history, read_truth_calibration(truth_dir))
     for name, e in errors.items():
-        plot_errors([e], os.path.join(out_dir, name + ".png"), "%s (%s)" % (name, e["kind"]))
+        if not np.all(np.isnan(e["error"][:, 0:7])):  # the base IMU has no extrinsic
+            plot_errors([e], os.path.join(out_dir, name + ".png"), "%s (%s)" % (name, e["kind"]))
         if intrinsics_estimated(e):
             plot_intrinsics([e], os.path.join(out_dir, name + "_intrinsics.png"),
                             "%s intrinsics" % name)
+        if intrinsics_estimated(e, IMU_INTRINSICS):
+            plot_intrinsics([e], os.path.join(out_dir, name + "_imu_intrinsics.png"),
+                            "%s IMU intrinsics" % name, IMU_INTRINSICS)
     table = final_calibration_table(errors)
     metrics = trajectory_metrics(result_dir, truth_dir)
     with open(os.path.join(out_dir, "summary.md"), "w") as f:

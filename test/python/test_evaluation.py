@@ -230,6 +230,44 @@ class Calibration(unittest.TestCase):
         self.assertAlmostEqual(table["distortion"]["error"], 0.0005, places=12)
         self.assertEqual((table["distortion"]["inside"], table["distortion"]["axes"]), (4, 4))
 
+    def test_imu_intrinsics_errors_when_estimated(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_truth(d)
+            R_acc = ev.exp_so3([0.0, 0.003, 0.0])
+            with open(os.path.join(d, "kalibr_imu_chain.yaml"), "w") as f:
+                f.write("imu0:\n  model: rpng\n  Tw: [[1, 0.002, 0], [0, 1, 0], [0, 0, 1]]\n"
+                        "  Tg: [[0, 0, 0], [0.0005, 0, 0], [0, 0, 0]]\n  R_IMUtoACC: %s\n"
+                        % R_acc.tolist())
+            keys = ev.IMU_INTRINSIC_KEYS
+            values = dict(zip(keys, [1, 0.0025, 1, 0, 0, 1, 1, 0, 1, 0, 0, 1,
+                                     0, 0, 0, 0.0005, 0, 0, 0, 0, 0] +
+                              list(ev.log_so3(R_acc @ ev.exp_so3([0.0, 1e-4, 0.0])))))
+            stds = dict(zip(keys, [1e-4] * 12 + [2e-5] * 9 + [1e-4] * 3))
+            with open(os.path.join(d, "calibration.csv"), "w") as f:
+                f.write(CSV_HEADER.strip() + "," + ",".join(keys) + "," +
+                        ",".join("std_" + k for k in keys) + "\n")
+                # Tw's (0, 1) off by 0.5e-3 (sigma 1e-4: outside 3 sigma), R_IMUtoACC by 1e-4
+                # rad about y (sigma 1e-4), the rest exact; no extrinsic (the base IMU).
+                f.write("1.0,imu0,imu," + ",".join(["nan"] * 14) + "," +
+                        ",".join(repr(float(values[k])) for k in keys) + "," +
+                        ",".join(repr(stds[k]) for k in keys) + "\n")
+            errors = ev.calibration_errors(ev.read_calibration_csv(os.path.join(d,
+                                                                               "calibration.csv")),
+                                           ev.read_truth_calibration(d))
+            imu0 = errors["imu0"]
+            self.assertTrue(ev.intrinsics_estimated(imu0, ev.IMU_INTRINSICS))
+            self.assertFalse(ev.intrinsics_estimated(imu0))
+            ev.plot_intrinsics([imu0], os.path.join(d, "i.png"), "imu0", ev.IMU_INTRINSICS)
+            self.assertTrue(os.path.getsize(os.path.join(d, "i.png")) > 1000)
+        table = {r["quantity"]: r for r in ev.final_calibration_table(errors)}
+        self.assertNotIn("rotation", table)  # no extrinsic
+        self.assertAlmostEqual(table["Tw"]["error"], 0.5, places=9)  # [1e-3]
+        self.assertEqual((table["Tw"]["inside"], table["Tw"]["axes"]), (5, 6))
+        self.assertAlmostEqual(table["Tg"]["error"], 0.0, places=9)
+        self.assertEqual(table["Tg"]["inside"], 9)
+        self.assertAlmostEqual(table["R_IMUtoACC"]["error"], math.degrees(1e-4), places=6)
+        self.assertEqual(table["R_IMUtoACC"]["inside"], 3)
+
     def test_plot_is_written(self):
         t = np.linspace(0, 5, 20)
         run = {"kind": "camera", "t": t, "error": np.outer(np.exp(-t), np.ones(7)) * 1e-3,

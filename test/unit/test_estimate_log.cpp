@@ -33,6 +33,11 @@ Rig smallRig() {
   rig.inertial[1].T_i_b =
       SE3(lie::expQuat(Eigen::Vector3d(0.1, -0.2, 0.3)), Eigen::Vector3d(0.01, 0.02, -0.03));
   rig.inertial[1].time_offset = 0.004;
+  rig.inertial[1].model = ImuModel::kRpng;
+  rig.inertial[1].intrinsics.Tw(0, 1) = 0.002;
+  rig.inertial[1].intrinsics.Ta(2, 2) = 0.997;
+  rig.inertial[1].intrinsics.Tg(1, 0) = 5e-4;
+  rig.inertial[1].intrinsics.R_IMUtoACC = lie::expSO3(Eigen::Vector3d(0.0, 0.003, 0.0));
   rig.inertial[2].name = "imu2";
   rig.inertial[2].type = InertialType::kGyroscope;
   rig.inertial[2].T_i_b = SE3(lie::expQuat(Eigen::Vector3d(0, 0, 0.5)), Eigen::Vector3d::Zero());
@@ -61,8 +66,11 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
   imu_std.rotation = Eigen::Vector3d::Constant(1e-3);
   imu_std.translation = Eigen::Vector3d::Constant(2e-3);
   imu_std.time_offset = 3e-4;
-  rig.inertial[1].std = imu_std;
   rig.inertial[2].std = imu_std;
+  imu_std.Tw(0, 1) = 1e-4;
+  imu_std.Tg(1, 0) = 2e-5;
+  imu_std.R_IMUtoACC = Eigen::Vector3d(3e-4, 4e-4, 5e-4);
+  rig.inertial[1].std = imu_std;
   log.addCalibration(1700000001000000000, rig);
   Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-4;
   cov(0, 5) = cov(5, 0) = 2e-5;
@@ -75,12 +83,19 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
 
   const auto cal = readCsv(dir + "/calibration.csv");
   ASSERT_EQ(cal.size(), 1u + 2 * 3);  // header, two solves of three sensors
-  ASSERT_EQ(cal[0].size(), 33u);
+  ASSERT_EQ(cal[0].size(), 33u + 48u);
   EXPECT_EQ(cal[0][0], "stamp");
   EXPECT_EQ(cal[0][16], "std_time_offset");
   EXPECT_EQ(cal[0][17], "fu");
   EXPECT_EQ(cal[0][32], "std_k4");
-  for (const auto& row : cal) ASSERT_EQ(row.size(), 33u);
+  EXPECT_EQ(cal[0][33], "tw11");
+  EXPECT_EQ(cal[0][34], "tw12");
+  EXPECT_EQ(cal[0][44], "ta33");
+  EXPECT_EQ(cal[0][48], "tg21");
+  EXPECT_EQ(cal[0][56], "acc_rz");
+  EXPECT_EQ(cal[0][58], "std_tw12");
+  EXPECT_EQ(cal[0][80], "std_acc_rz");
+  for (const auto& row : cal) ASSERT_EQ(row.size(), 33u + 48u);
   // First solve: cam0 without standard deviations.
   EXPECT_EQ(cal[1][0], "1700000000.123456789");
   EXPECT_EQ(cal[1][1], "cam0");
@@ -109,6 +124,19 @@ TEST(EstimateLog, WritesCalibrationAndPoseCovariance) {
   EXPECT_NEAR(std::stod(imu1[16]), 3e-4, 1e-15);
   EXPECT_EQ(imu1[17], "nan");
   EXPECT_EQ(imu1[32], "nan");
+  // Its rpng intrinsics and their standard deviations; the camera and the calibrated gyroscope
+  // have none.
+  EXPECT_NEAR(std::stod(imu1[33]), 1.0, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[34]), 0.002, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[44]), 0.997, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[48]), 5e-4, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[55]), 0.003, 1e-12);
+  EXPECT_NEAR(std::stod(imu1[58]), 1e-4, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[57]), 0.0, 1e-15);  // std_tw11: held
+  EXPECT_NEAR(std::stod(imu1[72]), 2e-5, 1e-15);
+  EXPECT_NEAR(std::stod(imu1[80]), 5e-4, 1e-15);
+  EXPECT_EQ(cal[4][33], "nan");
+  EXPECT_EQ(cal[6][33], "nan");
   const auto& gyro = cal[6];
   EXPECT_EQ(gyro[2], "gyroscope");
   EXPECT_NEAR(std::stod(gyro[5]), 0.5, 1e-9);

@@ -1,11 +1,13 @@
 // The estimate over time, for convergence plots, 3-sigma bounds and NEES (scripts/evaluate).
 // Two CSV files in the result directory; their columns are stable (new ones only ever appended).
 //
-// calibration.csv: one row per calibrated sensor (every camera, auxiliary IMU and gyroscope)
-// after every solve:
+// calibration.csv: one row per calibrated sensor (every camera, auxiliary IMU and gyroscope, and
+// the base IMU when its model is rpng) after every solve:
 //   stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,
 //   std_rx,std_ry,std_rz,std_px,std_py,std_pz,std_time_offset,
-//   fu,fv,pu,pv,k1,k2,k3,k4,std_fu,std_fv,std_pu,std_pv,std_k1,std_k2,std_k3,std_k4
+//   fu,fv,pu,pv,k1,k2,k3,k4,std_fu,std_fv,std_pu,std_pv,std_k1,std_k2,std_k3,std_k4,
+//   tw11,tw12,tw22,tw13,tw23,tw33,ta11,ta12,ta22,ta13,ta23,ta33,tg11,tg12,...,tg33,
+//   acc_rx,acc_ry,acc_rz, and std_ of each of those 24
 //   stamp        base-clock time of the newest window state [s] ("sec.nsec", exact)
 //   sensor       name (cam0, imu1, ...); kind: camera | imu | gyroscope
 //   rx ry rz     rotation vector Log(R) [rad] of T_cam_imu (cameras) or T_i_b (IMUs, gyroscopes)
@@ -18,6 +20,10 @@
 //   fu ... k4    a camera's intrinsics [px] and distortion coefficients (radtan k1 k2 p1 p2 or
 //                equidistant k1 k2 k3 k4, as distortion_coeffs), with std_* as above (0 when not
 //                estimated); nan for IMUs and gyroscopes
+//   tw11 ... acc_rz  an rpng inertial sensor's intrinsics: Tw's and Ta's upper-triangular
+//                elements (row, column), Tg's elements, Log(R_IMUtoACC) [rad]; std_* their
+//                standard deviations (rpng *_std keys; 0 when held); nan for cameras and
+//                calibrated sensors. The base IMU's row has nan extrinsic and time offset.
 //
 // pose_covariance.csv: one row per covariance of the newest window pose:
 //   stamp,tx,ty,tz,qx,qy,qz,qw,c00,c01,...,c55
@@ -45,7 +51,8 @@ class EstimateLog {
  public:
   explicit EstimateLog(std::size_t max_rows = 200000) : max_rows_(max_rows) {}
 
-  // Every calibrated sensor of `rig` (all but the base IMU) at `stamp_ns`.
+  // Every calibrated sensor of `rig` (all but the base IMU, unless its model is rpng) at
+  // `stamp_ns`.
   void addCalibration(TimeNs stamp_ns, const Rig& rig);
   // The newest pose and its covariance (skipped when the covariance is not finite).
   void addPose(TimeNs stamp_ns, const SE3& T_G_I, const Eigen::Matrix<double, 6, 6>& covariance);
@@ -56,10 +63,12 @@ class EstimateLog {
   std::size_t calibrationRows() const { return calibration_.size(); }
 
  private:
+  static constexpr int kColumns = 15 + 24;
   struct CalibrationRow {
     TimeNs stamp_ns;
     int sensor;                               // index into names_
-    Eigen::Matrix<double, 15, 1> value, std;  // extrinsic, time offset, intrinsics
+    // extrinsic, time offset, camera intrinsics, IMU intrinsics
+    Eigen::Matrix<double, kColumns, 1> value, std;
   };
   struct PoseRow {
     TimeNs stamp_ns;

@@ -46,9 +46,11 @@ struct Quantity {
   Eigen::VectorXd prior_std;
   Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
   Eigen::MatrixXd information;
-  std::string symbol = {};     // IMU intrinsics: "gyro" or "accel"
-  std::vector<int> rows = {};      // tangent rows when not offset.. (IMU intrinsics)
-  std::vector<int> elements = {};  // their ambient entries in the intrinsics block
+  // IMU intrinsics only: the channel ("gyro", "gravity", "accel"), the block's tangent rows
+  // (instead of offset..offset+size) and their ambient entries in the intrinsics block.
+  std::string symbol = {};
+  std::vector<int> rows = {};
+  std::vector<int> elements = {};
 };
 
 // The intrinsics element a weak direction mostly moves (ambient entries `elements`), as the

@@ -49,35 +49,62 @@ int EstimateLog::sensorIndex(const std::string& name, const char* kind) {
   return static_cast<int>(names_.size()) - 1;
 }
 
+// Columns 15-38 of a row: an rpng sensor's Tw, Ta (upper triangular, column-wise), Tg
+// (row-major) and Log(R_IMUtoACC), with standard deviations; nan otherwise.
+static void imuIntrinsicColumns(const InertialSensor& s, Eigen::Ref<Eigen::VectorXd> value,
+                                Eigen::Ref<Eigen::VectorXd> sd) {
+  value.setConstant(kNaN);
+  sd.setConstant(kNaN);
+  if (s.model != ImuModel::kRpng) return;
+  const ImuIntrinsics& in = s.intrinsics;
+  int k = 0;
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r <= c; ++r, ++k) {
+      value[k] = in.Tw(r, c);
+      value[6 + k] = in.Ta(r, c);
+      if (s.std) {
+        sd[k] = s.std->Tw(r, c);
+        sd[6 + k] = s.std->Ta(r, c);
+      }
+    }
+  }
+  for (int e = 0; e < 9; ++e) {
+    value[12 + e] = in.Tg(e / 3, e % 3);
+    if (s.std) sd[12 + e] = s.std->Tg(e / 3, e % 3);
+  }
+  value.tail<3>() = lie::logSO3(in.R_IMUtoACC);
+  if (s.std) sd.tail<3>() = s.std->R_IMUtoACC;
+}
+
 void EstimateLog::addCalibration(TimeNs stamp_ns, const Rig& rig) {
   for (const Camera& c : rig.cameras) {
     CalibrationRow row{stamp_ns, sensorIndex(c.name, "camera"), {}, {}};
-    row.value << lie::logQuat(c.T_cam_imu.q), c.T_cam_imu.p, c.timeshift_cam_imu, c.intrinsics,
-        c.distortion_coeffs;
+    row.value.setConstant(kNaN);
+    row.std.setConstant(kNaN);
+    row.value.head<15>() << lie::logQuat(c.T_cam_imu.q), c.T_cam_imu.p, c.timeshift_cam_imu,
+        c.intrinsics, c.distortion_coeffs;
     if (c.std) {
-      row.std << c.std->rotation, c.std->translation, c.std->timeshift_cam_imu, c.std->intrinsics,
-          c.std->distortion_coeffs;
-    } else {
-      row.std.setConstant(kNaN);
+      row.std.head<15>() << c.std->rotation, c.std->translation, c.std->timeshift_cam_imu,
+          c.std->intrinsics, c.std->distortion_coeffs;
     }
     calibration_.push_back(row);
   }
-  for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+  for (std::size_t i = 0; i < rig.inertial.size(); ++i) {
     const InertialSensor& s = rig.inertial[i];
+    if (i == 0 && s.model != ImuModel::kRpng) continue;
     const bool gyro = s.type == InertialType::kGyroscope;
     CalibrationRow row{stamp_ns, sensorIndex(s.name, gyro ? "gyroscope" : "imu"), {}, {}};
-    row.value << lie::logQuat(s.T_i_b.q), s.T_i_b.p, s.time_offset,
-        Eigen::Matrix<double, 8, 1>::Constant(kNaN);
-    if (s.std) {
-      row.std << s.std->rotation, s.std->translation, s.std->time_offset,
-          Eigen::Matrix<double, 8, 1>::Constant(kNaN);
-    } else {
-      row.std.setConstant(kNaN);
+    row.value.setConstant(kNaN);
+    row.std.setConstant(kNaN);
+    if (i > 0) {
+      row.value.head<7>() << lie::logQuat(s.T_i_b.q), s.T_i_b.p, s.time_offset;
+      if (s.std) row.std.head<7>() << s.std->rotation, s.std->translation, s.std->time_offset;
+      if (gyro) {  // a gyroscope has no position
+        row.value.segment<3>(3).setConstant(kNaN);
+        row.std.segment<3>(3).setConstant(kNaN);
+      }
     }
-    if (gyro) {  // a gyroscope has no position
-      row.value.segment<3>(3).setConstant(kNaN);
-      row.std.segment<3>(3).setConstant(kNaN);
-    }
+    imuIntrinsicColumns(s, row.value.tail<24>(), row.std.tail<24>());
     calibration_.push_back(row);
   }
   thin(&calibration_, max_rows_);
@@ -97,8 +124,16 @@ Status EstimateLog::write(const std::string& dir) const {
   std::fputs(
       "stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,std_rx,std_ry,std_rz,std_px,std_py,"
       "std_pz,std_time_offset,fu,fv,pu,pv,k1,k2,k3,k4,std_fu,std_fv,std_pu,std_pv,std_k1,std_k2,"
-      "std_k3,std_k4\n",
+      "std_k3,std_k4",
       file);
+  for (const char* prefix : {",", ",std_"}) {
+    for (const char* m : {"tw", "ta"}) {
+      for (const char* e : {"11", "12", "22", "13", "23", "33"}) std::fprintf(file, "%s%s%s", prefix, m, e);
+    }
+    for (int e = 0; e < 9; ++e) std::fprintf(file, "%stg%d%d", prefix, e / 3 + 1, e % 3 + 1);
+    for (const char* a : {"acc_rx", "acc_ry", "acc_rz"}) std::fprintf(file, "%s%s", prefix, a);
+  }
+  std::fputc('\n', file);
   for (const CalibrationRow& row : calibration_) {
     writeStamp(file, row.stamp_ns);
     std::fprintf(file, ",%s,%s", names_[row.sensor].c_str(), kinds_[row.sensor].c_str());
@@ -106,6 +141,8 @@ Status EstimateLog::write(const std::string& dir) const {
     for (int i = 0; i < 7; ++i) writeNumber(file, row.std[i]);
     for (int i = 7; i < 15; ++i) writeNumber(file, row.value[i]);
     for (int i = 7; i < 15; ++i) writeNumber(file, row.std[i]);
+    for (int i = 15; i < kColumns; ++i) writeNumber(file, row.value[i]);
+    for (int i = 15; i < kColumns; ++i) writeNumber(file, row.std[i]);
     std::fputc('\n', file);
   }
   if (std::fclose(file) != 0) return Status::Error(calibration_path + ": cannot write");
