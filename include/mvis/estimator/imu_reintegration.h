@@ -81,4 +81,12 @@ ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDelta
 // intrinsics columns zero: its readings are taken as calibrated).
 ImuDeltas deltasOf(const ImuPreintegration& pre);
 
+// The deltas an inertial factor evaluates with at x (imu_factor.h): without an intrinsics block
+// the preintegration's, with one re-integrated at x (kReintegrate; Jacobians only when
+// `jacobians`) or `fixed` (kFixed). `local` holds what is computed here.
+const ImuDeltas& factorDeltas(const ImuPreintegration& pre, bool intrinsics,
+                              IntrinsicsLinearization mode, const ImuDeltas& fixed,
+                              const ImuDeltas::Vector30d& x, const ImuIntrinsicsFrame& frame,
+                              bool jacobians, ImuDeltas* local);
+
 }  // namespace mvis

@@ -113,7 +113,8 @@ void Estimator::Impl::propagationBiases(const Eigen::Vector3d& bg, const Eigen::
 
 void Estimator::Impl::imuIntrinsicsCovariance(const ceres::Covariance& cov) {
   for (auto& b : imu_intrinsics) {
-    if (!b || !estimated(b->x)) continue;
+    // A block held whole (constant) is not in the computation: it keeps what it had.
+    if (!b || problem->IsParameterBlockConstant(b->x)) continue;
     // In the block's own tangent (held directions with the variance they keep), then ambient.
     const Eigen::MatrixXd C = tangentCovariance(cov, b->x);
     const std::vector<int>& idx = b->free;

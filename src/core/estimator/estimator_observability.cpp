@@ -480,7 +480,10 @@ Eigen::MatrixXd Estimator::Impl::tangentCovariance(const ceres::Covariance& cov,
                                                    const double* block) const {
   const int t = problem->ParameterBlockTangentSize(block);
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(t, t);
-  cov.GetCovarianceBlockInTangentSpace(block, block, C.data());
+  // Only for blocks that were in the computation (not constant); NaN otherwise, never garbage.
+  if (!cov.GetCovarianceBlockInTangentSpace(block, block, C.data())) {
+    C.setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
   const auto h = holds.find(block);
   if (h == holds.end() || !h->second.subspace) return C;
   const Hold& hold = h->second;

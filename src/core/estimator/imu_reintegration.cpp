@@ -1,20 +1,17 @@
 #include "mvis/estimator/imu_reintegration.h"
 
 #include <ceres/jet.h>
-#include <ceres/rotation.h>
 
-#include <type_traits>
-
+#include "../factors/tangent_jet.h"
 #include "mvis/common/lie.h"
 
 namespace mvis {
 namespace {
 
 using L = ImuIntrinsicsLayout;
-template <typename T>
-using Mat3 = Eigen::Matrix<T, 3, 3>;
-template <typename T>
-using Vec3 = Eigen::Matrix<T, 3, 1>;
+using tangent_jet::expT;
+using tangent_jet::Mat3;
+using tangent_jet::Vec3;
 
 // Column-wise upper-triangular index of element (r, c), r <= c.
 constexpr int upperIndex(int r, int c) { return c * (c + 1) / 2 + r; }
@@ -26,13 +23,6 @@ Mat3<T> upperT(const T* d) {
     for (int r = 0; r <= c; ++r) M(r, c) = d[upperIndex(r, c)];
   }
   return M;
-}
-
-template <typename T>
-Mat3<T> expT(const Vec3<T>& w) {
-  Mat3<T> R;
-  ceres::AngleAxisToRotationMatrix(w.data(), R.data());
-  return R;
 }
 
 // The midpoint scheme of ImuPreintegration::integrate on readings corrected at x.
@@ -155,6 +145,19 @@ ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDelta
     out.J.block<3, 1>(0, k) = lie::vee(out.dR.transpose() * D);
   }
   return out;
+}
+
+const ImuDeltas& factorDeltas(const ImuPreintegration& pre, bool intrinsics,
+                              IntrinsicsLinearization mode, const ImuDeltas& fixed,
+                              const ImuDeltas::Vector30d& x, const ImuIntrinsicsFrame& frame,
+                              bool jacobians, ImuDeltas* local) {
+  if (!intrinsics) {
+    *local = deltasOf(pre);
+    return *local;
+  }
+  if (mode == IntrinsicsLinearization::kFixed) return fixed;
+  *local = reintegrate(pre.samples(), x, frame, jacobians);
+  return *local;
 }
 
 ImuDeltas deltasOf(const ImuPreintegration& pre) {

@@ -150,19 +150,13 @@ void AuxImuFactor::residual(double const* const* parameters, const ImuDeltas& d,
 
 bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
                             double** jacobians) const {
+  const int bias_at = model_ == AuxImuModel::kVelocityState ? 3 : 0;
   ImuDeltas local;
-  const ImuDeltas* d = &fixed_;
-  if (!intrinsics_) {
-    local = deltasOf(*pre_);
-    d = &local;
-  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
-    const int bias_at = model_ == AuxImuModel::kVelocityState ? 3 : 0;
-    local = reintegrate(
-        pre_->samples(),
-        deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3, parameters[9]),
-        frame_, jacobians != nullptr);
-    d = &local;
-  }
+  const ImuDeltas* d = &factorDeltas(
+      *pre_, intrinsics_, mode_, fixed_,
+      deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3,
+                     intrinsics_ ? parameters[9] : nullptr),
+      frame_, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
     return true;

@@ -106,15 +106,10 @@ void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T
 bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
                           double** jacobians) const {
   ImuDeltas local;
-  const ImuDeltas* d = &fixed_;
-  if (!intrinsics_) {
-    local = deltasOf(*pre_);
-    d = &local;
-  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
-    local = reintegrate(pre_->samples(), deltaVariables(parameters[4], nullptr, parameters[8]),
-                        kGyroFrame, jacobians != nullptr);
-    d = &local;
-  }
+  const ImuDeltas* d = &factorDeltas(
+      *pre_, intrinsics_, mode_, fixed_,
+      deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr), kGyroFrame,
+      jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
     return true;

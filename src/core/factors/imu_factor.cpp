@@ -51,14 +51,8 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   const ImuDeltas::Vector30d x =
       deltaVariables(parameters[1] + 3, parameters[1] + 6, intrinsics_ ? parameters[5] : nullptr);
   ImuDeltas local;
-  const ImuDeltas* d = &fixed_;
-  if (!intrinsics_) {
-    local = deltasOf(pre);
-    d = &local;
-  } else if (mode_ == IntrinsicsLinearization::kReintegrate) {
-    local = reintegrate(pre.samples(), x, frame_, jacobians != nullptr);
-    d = &local;
-  }
+  const ImuDeltas* d =
+      &factorDeltas(pre, intrinsics_, mode_, fixed_, x, frame_, jacobians != nullptr, &local);
   const Eigen::Matrix<double, 9, 1> lin = d->J * (x - d->x0);
   const Vector3 phi = lin.head<3>();
   const Matrix3 dR = d->dR * lie::expSO3(phi);
