@@ -320,7 +320,6 @@ void Estimator::Impl::checkObservability() {
                                                 : options.imu_intrinsics_observability_ratio;
     if (!(ratio > 0.0)) continue;
     const WeakDirections weak = weakDirections(S * q.information * S, q.prior_std, ratio);
-    if (getenv("MVIS_DEBUG_OBS") && !q.symbol.empty()) fprintf(stderr, "obs %s %s %d\n", q.sensor.c_str(), q.symbol.c_str(), (int)weak.directions.cols());
     if (weak.directions.cols() == 0) continue;
     UnobservableCalibration u;
     u.sensor = q.sensor;
