@@ -135,12 +135,11 @@ AuxFixture auxFixture(AuxImuModel model, double td0_i, double td0_j, double k, d
   AuxFixture f;
   auto pre = preintegrate(aux, trajectory, td0_i, td0_j, bg, ba);
   if (intrinsics) {
-    f.factor = std::make_unique<AuxImuFactor>(
-        model, pre, td0_i, td0_j, baseMotion(trajectory, kTi), baseMotion(trajectory, kTj),
-        ImuIntrinsicsFrame(), IntrinsicsLinearization::kReintegrate, block.data());
+    f.factor = std::make_unique<AuxImuFactor>(model, pre, td0_i, td0_j, baseMotion(trajectory, kTi),
+                                              baseMotion(trajectory, kTj), ImuIntrinsicsFrame(),
+                                              IntrinsicsLinearization::kReintegrate, block.data());
   } else {
-    f.factor = std::make_unique<AuxImuFactor>(model, pre, td0_i, td0_j,
-                                              baseMotion(trajectory, kTi),
+    f.factor = std::make_unique<AuxImuFactor>(model, pre, td0_i, td0_j, baseMotion(trajectory, kTi),
                                               baseMotion(trajectory, kTj));
   }
   f.blocks = baseBlocks(trajectory, k);
@@ -289,8 +288,8 @@ TEST(AuxImuFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
   const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
   // At the true intrinsics, as small as without them (ResidualAtTruthIsFarBelowNoise, 500 Hz).
-  const AuxFixture truth = auxFixture(AuxImuModel::kVelocityState, kTrueOffset, kTrueOffset, 0.0,
-                                      500.0, true);
+  const AuxFixture truth =
+      auxFixture(AuxImuModel::kVelocityState, kTrueOffset, kTrueOffset, 0.0, 500.0, true);
   EXPECT_LT(maxAbs(test::evaluateResiduals(*truth.factor, truth.blocks)), 0.05);
 }
 

@@ -102,10 +102,11 @@ std::vector<IntrinsicsErrors> allErrors(const SimRun& run, const Rig& estimate, 
   for (std::size_t i = 0; i < run.truth.inertial.size(); ++i) {
     const IntrinsicsErrors g = intrinsicsErrors(run.truth.inertial[i], run.guess.inertial[i]);
     const IntrinsicsErrors e = intrinsicsErrors(run.truth.inertial[i], estimate.inertial[i]);
-    std::printf("%s %s: Dw/Da %.5f (from %.5f), Tg %.5f (from %.5f), R_IMUtoACC %.4f deg "
-                "(from %.4f), largest error/sigma %.2f\n",
-                what, run.truth.inertial[i].name.c_str(), e.D, g.D, e.Tg, g.Tg, e.rotation,
-                g.rotation, e.sigma);
+    std::printf(
+        "%s %s: Dw/Da %.5f (from %.5f), Tg %.5f (from %.5f), R_IMUtoACC %.4f deg "
+        "(from %.4f), largest error/sigma %.2f\n",
+        what, run.truth.inertial[i].name.c_str(), e.D, g.D, e.Tg, g.Tg, e.rotation, g.rotation,
+        e.sigma);
     out.push_back(e);
   }
   return out;
@@ -116,7 +117,8 @@ std::vector<IntrinsicsErrors> allErrors(const SimRun& run, const Rig& estimate, 
 TEST(Estimator, CalibratesImuIntrinsicsByReintegration) {
   SimRun run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withIntrinsics);
   perturbIntrinsics(&run.guess, 7, 1.0);
-  const auto estimator = runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
+  const auto estimator =
+      runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
   ASSERT_NE(estimator, nullptr);
   const Rig estimate = estimator->calibration();
   const auto e = allErrors(run, estimate, "re-integrated");
@@ -152,13 +154,15 @@ TEST(Estimator, FixedIntrinsicsLinearizationEndsWorse) {
   perturbIntrinsics(&run.guess, 7, 10.0);
   double worst[2] = {0.0, 0.0}, sigma[2] = {0.0, 0.0};
   for (int m = 0; m < 2; ++m) {
-    const auto mode = m == 0 ? IntrinsicsLinearization::kReintegrate : IntrinsicsLinearization::kFixed;
+    const auto mode =
+        m == 0 ? IntrinsicsLinearization::kReintegrate : IntrinsicsLinearization::kFixed;
     EstimatorOptions options = intrinsicsOptions(mode, 10.0);
     // The linearization alone: no degeneracy holds (they act on the early, large errors too).
     options.imu_intrinsics_observability_ratio = 0.0;
     const auto estimator = runFrom(run.guess, run, options);
     ASSERT_NE(estimator, nullptr);
-    for (const auto& e : allErrors(run, estimator->calibration(), m == 0 ? "re-integrated" : "fixed")) {
+    for (const auto& e :
+         allErrors(run, estimator->calibration(), m == 0 ? "re-integrated" : "fixed")) {
       worst[m] = std::max(worst[m], e.D);
       sigma[m] = std::max(sigma[m], e.sigma);
     }
@@ -213,8 +217,8 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
     std::printf("  unobservable: %s\n", u.text().c_str());
     if (u.sensor == "imu0") imu0.insert(imu0.end(), u.elements.begin(), u.elements.end());
   }
-  for (const char* element : {"dw12", "dw22", "dw13", "dw23", "dw33", "da11", "tg11", "tg21",
-                              "tg31"}) {
+  for (const char* element :
+       {"dw12", "dw22", "dw13", "dw23", "dw33", "da11", "tg11", "tg21", "tg31"}) {
     EXPECT_NE(std::find(imu0.begin(), imu0.end(), element), imu0.end()) << element;
   }
   EXPECT_EQ(std::find(imu0.begin(), imu0.end(), "dw11"), imu0.end());  // rates about x vary
@@ -228,7 +232,8 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   for (int r = 0; r < 3; ++r) EXPECT_NEAR(sd.Tg(r, 0), 0.004, 4e-4) << r;
   EXPECT_LT(sd.Tw(0, 0), 0.2 * 0.012);
   // And they did not move from the guess (held), where the guess was off.
-  const Eigen::Matrix3d moved = estimate.inertial[0].intrinsics.Tw - run.guess.inertial[0].intrinsics.Tw;
+  const Eigen::Matrix3d moved =
+      estimate.inertial[0].intrinsics.Tw - run.guess.inertial[0].intrinsics.Tw;
   EXPECT_LT(std::abs(moved(2, 2)), 1e-4);
 }
 

@@ -235,7 +235,8 @@ TEST(Estimator, HoldsNamedQuantitiesAndRefusesUnknownOnes) {
   for (const auto& [bad, says] :
        {std::pair<std::string, std::string>{"cam7.intrinsics",
                                             "(cam0, cam1, cam2, imu0, imu1, imu2)"},
-        {"imu1.scale", "quantity must be extrinsic, time_offset, intrinsics or gravity_sensitivity"},
+        {"imu1.scale",
+         "quantity must be extrinsic, time_offset, intrinsics or gravity_sensitivity"},
         {"imu0.extrinsic", "quantity must be intrinsics or gravity_sensitivity"},
         {"cam1", "expected <sensor>.<quantity>"}}) {
     options.hold = {bad};

@@ -187,15 +187,15 @@ TEST(ImuFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
   InertialSensor sensor = idealImu(500.0);
   sensor.intrinsics = test::tableFourIntrinsics();
   ImuFactorFixture f = makeFixture(1.0);
-  f.pre = std::make_shared<ImuPreintegration>(
-      preintegrate(sensor, trajectory, 4.0, 4.1, noiseFree(), Eigen::Vector3d(1e-3, 0, 0),
-                   Eigen::Vector3d(0, 0.02, 0)));
+  f.pre = std::make_shared<ImuPreintegration>(preintegrate(sensor, trajectory, 4.0, 4.1,
+                                                           noiseFree(), Eigen::Vector3d(1e-3, 0, 0),
+                                                           Eigen::Vector3d(0, 0.02, 0)));
   std::vector<double> block = test::intrinsicsBlock(sensor.intrinsics);
   for (int k = 0; k < kImuIntrinsicsSize; ++k) block[k] += 1e-3 * std::sin(1.0 + k);
   f.blocks.push_back(block);
   const PoseManifold pose;
   const ceres::SphereManifold<3> sphere;
-  const std::vector<const ceres::Manifold*> manifolds = {&pose,    nullptr, &pose,
+  const std::vector<const ceres::Manifold*> manifolds = {&pose,   nullptr, &pose,
                                                          nullptr, &sphere, nullptr};
   ImuIntrinsicsFrame frame;
   frame.R0 = lie::expSO3(Eigen::Vector3d(0.02, 0.01, -0.03));
@@ -215,8 +215,8 @@ TEST(ImuFactor, WithTrueIntrinsicsResidualIsFarBelowNoise) {
   InertialSensor sensor = idealImu(500.0);
   sensor.intrinsics = test::tableFourIntrinsics();
   ImuFactorFixture f = makeFixture(0.0);
-  f.pre = std::make_shared<ImuPreintegration>(
-      preintegrate(sensor, trajectory, 4.0, 4.1, noiseFree()));
+  f.pre =
+      std::make_shared<ImuPreintegration>(preintegrate(sensor, trajectory, 4.0, 4.1, noiseFree()));
   const std::vector<double> truth = test::intrinsicsBlock(sensor.intrinsics);
   f.blocks.push_back(truth);
   const ImuFactor factor(f.pre, ImuIntrinsicsFrame(), IntrinsicsLinearization::kReintegrate,

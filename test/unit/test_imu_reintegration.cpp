@@ -57,9 +57,8 @@ TEST(ImuReintegration, UndoesTheSimulatorsIntrinsics) {
   const std::vector<double> block = intrinsicsBlock(sensor.intrinsics);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
   const ImuIntrinsicsFrame frame;  // R0 = I
-  const PredictionError with =
-      predictionError(reintegrate(m, deltaVariables(zero.data(), zero.data(), block.data()),
-                                  frame, false));
+  const PredictionError with = predictionError(
+      reintegrate(m, deltaVariables(zero.data(), zero.data(), block.data()), frame, false));
   const PredictionError without = predictionError(
       reintegrate(m, deltaVariables(zero.data(), zero.data(), nullptr), frame, false));
   // With them, only the midpoint scheme's error remains (measured 1.3e-7 rad, 1.3e-6 m/s,
@@ -85,8 +84,8 @@ TEST(ImuReintegration, MatchesPreintegrationAtIdentityIntrinsics) {
   // The preintegration's propagated bias Jacobians are the same derivatives.
   const ImuDeltas p = deltasOf(pre);
   const Eigen::Matrix<double, 9, 6> a = d.J.leftCols<6>(), b = p.J.leftCols<6>();
-  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + a.cwiseAbs().maxCoeff()))
-      << a << "\n\n" << b;
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + a.cwiseAbs().maxCoeff())) << a << "\n\n"
+                                                                                   << b;
 }
 
 TEST(ImuReintegration, JacobianMatchesCentralDifferences) {
@@ -108,8 +107,8 @@ TEST(ImuReintegration, JacobianMatchesCentralDifferences) {
       xp[k] += h;
       xm[k] -= h;
       const ImuDeltas a = reintegrate(m, xp, frame, false), b = reintegrate(m, xm, frame, false);
-      numeric.block<3, 1>(0, k) = (lie::logSO3(d.dR.transpose() * a.dR) -
-                                   lie::logSO3(d.dR.transpose() * b.dR)) / (2 * h);
+      numeric.block<3, 1>(0, k) =
+          (lie::logSO3(d.dR.transpose() * a.dR) - lie::logSO3(d.dR.transpose() * b.dR)) / (2 * h);
       numeric.block<3, 1>(3, k) = (a.dp - b.dp) / (2 * h);
       numeric.block<3, 1>(6, k) = (a.dv - b.dv) / (2 * h);
     }

@@ -5,13 +5,13 @@
 #include <gtest/gtest.h>
 
 #include "factor_test_util.h"
-#include "sim_test_util.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/sim/imu_simulator.h"
 #include "mvis/sim/rig_simulator.h"
+#include "sim_test_util.h"
 
 namespace mvis {
 namespace {
@@ -209,11 +209,10 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
   }
   const std::vector<double> truth = test::intrinsicsBlock(in);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-  const ImuDeltas d =
-      reintegrate(readings, deltaVariables(zero.data(), zero.data(), truth.data()),
-                  ImuIntrinsicsFrame(), true);
-  const TagReprojectionFactor::ImuAnchor anchor = TagReprojectionFactor::makeAnchor(
-      d, true, t_c - t_a, w, f, s.trajectory.evaluate(t_a).dw_I);
+  const ImuDeltas d = reintegrate(readings, deltaVariables(zero.data(), zero.data(), truth.data()),
+                                  ImuIntrinsicsFrame(), true);
+  const TagReprojectionFactor::ImuAnchor anchor =
+      TagReprojectionFactor::makeAnchor(d, true, t_c - t_a, w, f, s.trajectory.evaluate(t_a).dw_I);
   std::unique_ptr<TagReprojectionFactor> factor(TagReprojectionFactor::imuPropagated(
       s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
   const TrajectoryState sk = s.trajectory.evaluate(t_k);
@@ -232,7 +231,7 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
   blocks[1] = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
   const PoseManifold pose;
   const ceres::SphereManifold<3> sphere;
-  const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &sphere, &pose,
+  const std::vector<const ceres::Manifold*> manifolds = {&pose,   nullptr, &sphere, &pose,
                                                          nullptr, nullptr, nullptr};
   EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*factor, blocks, manifolds),
                                    test::numericTangentJacobians(*factor, blocks, manifolds, 1e-6)),

@@ -83,7 +83,7 @@ struct EstimatorOptions {
   bool estimate_imu_intrinsics = false;
   bool estimate_gravity_sensitivity = false;  // Tg (as OpenVINS's calib_imu_g_sensitivity)
   IntrinsicsLinearization imu_intrinsics_linearization = IntrinsicsLinearization::kReintegrate;
-  double imu_scale_misalignment_prior = 0.01;  // every element of Dw, Da
+  double imu_scale_misalignment_prior = 0.01;    // every element of Dw, Da
   double imu_gravity_sensitivity_prior = 0.002;  // every element of Tg [rad/s per m/s^2]
   double imu_acc_rotation_prior_rad = 0.01;      // R_IMUtoACC, per axis [rad]
   // Per sensor: quantities held at their configured value although their class is estimated,
@@ -161,8 +161,8 @@ struct SolveSummary {
 
 // A calibrated quantity that the current motion leaves (partly) unobservable.
 struct UnobservableCalibration {
-  std::string sensor;    // the sensor's name (cam1, imu2, ...)
-  std::string base;      // the base IMU's name, whose frame directions_I are in
+  std::string sensor;  // the sensor's name (cam1, imu2, ...)
+  std::string base;    // the base IMU's name, whose frame directions_I are in
   // "rotation", "translation", "time offset", or of an inertial sensor's intrinsics
   // "gyroscope scale and misalignment" (Dw), "gravity sensitivity" (Tg) or "accelerometer
   // intrinsics" (Da with R_IMUtoACC).

@@ -55,7 +55,8 @@ class AuxImuFactor final : public ceres::CostFunction {
   AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegration> pre,
                double time_offset0_i, double time_offset0_j, const BaseMotion& base_i,
                const BaseMotion& base_j);
-  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed), as ImuFactor.
+  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed),
+  // as ImuFactor.
   AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegration> pre,
                double time_offset0_i, double time_offset0_j, const BaseMotion& base_i,
                const BaseMotion& base_j, const ImuIntrinsicsFrame& frame,

@@ -16,9 +16,9 @@
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], bias_i [3],
 // bias_j [3], extrinsic rotation [4] (the quaternion of T_i_b, RotationManifold),
 // time_offset [1], and with its intrinsics estimated its intrinsics block [24] (only Dw
-// enters, imu_reintegration.h). A gyroscope's translation does not enter: it is not calibrated (report
-// Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces
-// (tangent lift convention of state_blocks.h).
+// enters, imu_reintegration.h). A gyroscope's translation does not enter: it is not calibrated
+// (report Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent
+// spaces (tangent lift convention of state_blocks.h).
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -38,7 +38,8 @@ class GyroFactor final : public ceres::CostFunction {
   // `base_j`: the base motion at t_i, t_j.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j);
-  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed), as ImuFactor.
+  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed),
+  // as ImuFactor.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
              IntrinsicsLinearization mode, const double* intrinsics0);

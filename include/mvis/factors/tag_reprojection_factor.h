@@ -43,8 +43,8 @@
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
 // coordinates; t_d), then chained per corner with the projection's analytic Jacobian in p_C and
 // in the intrinsics (projectWithJacobians). The IMU intrinsics enter through 9 more directions,
-// perturbations of the anchor's deltas, chained with J_*_I. Pose-block Jacobians are written in the tangent lift
-// convention of state_blocks.h.
+// perturbations of the anchor's deltas, chained with J_*_I. Pose-block Jacobians are written in the
+// tangent lift convention of state_blocks.h.
 #pragma once
 
 #include <ceres/cost_function.h>

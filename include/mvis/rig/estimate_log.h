@@ -66,7 +66,7 @@ class EstimateLog {
   static constexpr int kColumns = 15 + 24;
   struct CalibrationRow {
     TimeNs stamp_ns;
-    int sensor;                               // index into names_
+    int sensor;  // index into names_
     // extrinsic, time offset, camera intrinsics, IMU intrinsics
     Eigen::Matrix<double, kColumns, 1> value, std;
   };

@@ -20,24 +20,24 @@ struct NodeletOptions {
   int tag_max_hamming = 1;             // bits the tag decoder may correct (0..2)
   int tag_threads = 1;                 // libapriltag threads per camera
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
-  int window_size = 4;                           // states in the sliding window
-  double pixel_sigma = 1.0;                      // [px] corner noise
-  bool estimate_extrinsics = true;               // camera-IMU extrinsics
-  bool estimate_time_offsets = true;             // camera time offsets
-  bool estimate_aux_extrinsics = true;           // T_i_b of aux IMUs (rotation of gyroscopes)
-  bool estimate_aux_time_offsets = true;         // time_offset of aux IMUs and gyroscopes
-  bool estimate_intrinsics = false;              // every camera's intrinsics and distortion
-  bool estimate_imu_intrinsics = false;          // rpng sensors' Dw, Da, R_IMUtoACC
-  bool estimate_gravity_sensitivity = false;     // and their Tg
-  std::vector<std::string> hold;                 // "<sensor>.<quantity>" held (EstimatorOptions)
-  std::string aux_imu_model = "velocity_state";  // or "rigid_velocity" (report Appendix B)
-  int max_iterations = 10;                       // per solve
-  int solve_every = 3;                           // solve after every n-th cam0 frame
-  double observability_ratio = 500.0;            // EstimatorOptions; 0: no degeneracy check
+  int window_size = 4;                              // states in the sliding window
+  double pixel_sigma = 1.0;                         // [px] corner noise
+  bool estimate_extrinsics = true;                  // camera-IMU extrinsics
+  bool estimate_time_offsets = true;                // camera time offsets
+  bool estimate_aux_extrinsics = true;              // T_i_b of aux IMUs (rotation of gyroscopes)
+  bool estimate_aux_time_offsets = true;            // time_offset of aux IMUs and gyroscopes
+  bool estimate_intrinsics = false;                 // every camera's intrinsics and distortion
+  bool estimate_imu_intrinsics = false;             // rpng sensors' Dw, Da, R_IMUtoACC
+  bool estimate_gravity_sensitivity = false;        // and their Tg
+  std::vector<std::string> hold;                    // "<sensor>.<quantity>" held (EstimatorOptions)
+  std::string aux_imu_model = "velocity_state";     // or "rigid_velocity" (report Appendix B)
+  int max_iterations = 10;                          // per solve
+  int solve_every = 3;                              // solve after every n-th cam0 frame
+  double observability_ratio = 500.0;               // EstimatorOptions; 0: no degeneracy check
   double imu_intrinsics_observability_ratio = 1.0;  // EstimatorOptions; 0: off
-  double observability_horizon_s = 5.0;          // [s] motion the check looks back over
-  int solver_threads = 1;                        // Ceres threads
-  std::string result_dir;                        // written on shutdown and by ~save_calibration
+  double observability_horizon_s = 5.0;             // [s] motion the check looks back over
+  int solver_threads = 1;                           // Ceres threads
+  std::string result_dir;                           // written on shutdown and by ~save_calibration
 
   // Empty when the options are usable, else what is wrong, naming the parameter.
   std::string validate() const;

@@ -271,7 +271,7 @@ void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
     addRecord(si, cost, nullptr, std::move(blocks));
     return;
   }
-  std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,    sj->speed_bias, ai->x,
+  std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,      sj->speed_bias, ai->x,
                                  aj->x,    a.extrinsic,    a.time_offset, gravity};
   ceres::CostFunction* cost = nullptr;
   if (intrinsics != nullptr) {

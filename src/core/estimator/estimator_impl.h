@@ -145,12 +145,12 @@ struct ImuIntrinsicsBlock {
 // Time-weighted moments of one sensor's readings between two window states, for the
 // intrinsics' observability (estimator_observability.cpp).
 struct ReadingMoments {
-  TimeNs t = 0;      // the later state's time
-  double T = 0.0;    // [s] covered
-  int n = 0;         // readings
-  Eigen::Vector3d w = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();  // int x dt
+  TimeNs t = 0;    // the later state's time
+  double T = 0.0;  // [s] covered
+  int n = 0;       // readings
+  Eigen::Vector3d w = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();    // int x dt
   Eigen::Matrix3d ww = Eigen::Matrix3d::Zero(), aa = Eigen::Matrix3d::Zero();  // int x x^T dt
-  Eigen::Matrix3d wa = Eigen::Matrix3d::Zero();                                 // int w a^T dt
+  Eigen::Matrix3d wa = Eigen::Matrix3d::Zero();                                // int w a^T dt
 };
 
 struct InitFrame {
@@ -176,11 +176,11 @@ inline double seconds(Clock::time_point a, Clock::time_point b) {
 using estimator_internal::AuxSensor;
 using estimator_internal::AuxState;
 using estimator_internal::CameraBlocks;
-using estimator_internal::ImuIntrinsicsBlock;
 using estimator_internal::Clock;
+using estimator_internal::ImuIntrinsicsBlock;
 using estimator_internal::InitFrame;
-using estimator_internal::ReadingMoments;
 using estimator_internal::readingIn;
+using estimator_internal::ReadingMoments;
 using estimator_internal::readingsBetween;
 using estimator_internal::ResidualRecord;
 using estimator_internal::seconds;

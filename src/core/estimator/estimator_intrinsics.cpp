@@ -49,8 +49,10 @@ void Estimator::Impl::initImuIntrinsics() {
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r <= c; ++r) {
         const int k = c * (c + 1) / 2 + r;
-        b->prior_std[L::kDw + k] = pick(sd ? sd->Tw(r, c) : 0.0, options.imu_scale_misalignment_prior);
-        b->prior_std[L::kDa + k] = pick(sd ? sd->Ta(r, c) : 0.0, options.imu_scale_misalignment_prior);
+        b->prior_std[L::kDw + k] =
+            pick(sd ? sd->Tw(r, c) : 0.0, options.imu_scale_misalignment_prior);
+        b->prior_std[L::kDa + k] =
+            pick(sd ? sd->Ta(r, c) : 0.0, options.imu_scale_misalignment_prior);
       }
     }
     for (int k = 0; k < 9; ++k) {
@@ -62,8 +64,8 @@ void Estimator::Impl::initImuIntrinsics() {
           pick(sd ? sd->R_IMUtoACC[k] : 0.0, options.imu_acc_rotation_prior_rad);
     }
     std::vector<int> held;
-    const bool gravity = options.estimate_gravity_sensitivity &&
-                         !heldByOption(sensor.name, "gravity_sensitivity");
+    const bool gravity =
+        options.estimate_gravity_sensitivity && !heldByOption(sensor.name, "gravity_sensitivity");
     for (int k = 0; k < kImuIntrinsicsSize; ++k) {
       const bool tg = k >= L::kTg && k < L::kTg + 9;
       if ((gyro && k >= L::kDa) || (tg && !gravity)) {
@@ -72,7 +74,8 @@ void Estimator::Impl::initImuIntrinsics() {
         b->free.push_back(k);
       }
     }
-    if (!held.empty()) b->manifold = std::make_unique<ceres::SubsetManifold>(kImuIntrinsicsSize, held);
+    if (!held.empty())
+      b->manifold = std::make_unique<ceres::SubsetManifold>(kImuIntrinsicsSize, held);
     imu_intrinsics.push_back(std::move(b));
   }
 }
@@ -158,7 +161,8 @@ void Estimator::Impl::writeImuIntrinsics(Rig* out) const {
     sd.Tw = upperStd(L::kDw, s.intrinsics.Tw);
     if (!b->frame.gyro_only) {
       sd.Ta = upperStd(L::kDa, s.intrinsics.Ta);
-      for (int k = 0; k < 9; ++k) sd.Tg(k / 3, k % 3) = std::sqrt(std::max(C(L::kTg + k, L::kTg + k), 0.0));
+      for (int k = 0; k < 9; ++k)
+        sd.Tg(k / 3, k % 3) = std::sqrt(std::max(C(L::kTg + k, L::kTg + k), 0.0));
       const Eigen::Vector3d theta(b->x + L::kAccRotation);
       const Eigen::Matrix3d J = -b->frame.R0 * lie::rightJacobianSO3(-theta);
       sd.R_IMUtoACC = (J * C.block<3, 3>(L::kAccRotation, L::kAccRotation) * J.transpose())

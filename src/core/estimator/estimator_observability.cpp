@@ -18,9 +18,9 @@ std::string UnobservableCalibration::text() const {
     s << ')';
     bool rate = false, force = false;
     for (const auto& e : elements) (e.rfind("dw", 0) == 0 ? rate : force) = true;
-    s << ": vary " << (rate ? "the rate of rotation about" : "")
-      << (rate && force ? ", and " : "") << (force ? "the specific force along" : "")
-      << " each of " << sensor << "'s axes" << (force ? " (tilt the rig, accelerate it)" : "");
+    s << ": vary " << (rate ? "the rate of rotation about" : "") << (rate && force ? ", and " : "")
+      << (force ? "the specific force along" : "") << " each of " << sensor << "'s axes"
+      << (force ? " (tilt the rig, accelerate it)" : "");
   } else if (directions_I.empty()) {
     s << ": vary the rig's rate of rotation";  // only gyroscope time offsets are checked
   } else if (directions_I.size() == 1) {
@@ -248,7 +248,7 @@ void Estimator::Impl::checkObservability() {
     };
     // One channel: per output row, (element, linear map from z to its regressor) pairs.
     struct Term {
-      int element;                   // ambient index in the block
+      int element;                    // ambient index in the block
       Eigen::Matrix<double, 1, 6> g;  // regressor = g z
     };
     const auto addChannel = [&](const std::vector<std::vector<Term>>& rows, double density,
@@ -274,7 +274,8 @@ void Estimator::Impl::checkObservability() {
         }
         I += G * C * G.transpose() / (density * density);
       }
-      Quantity q{rig.inertial[i].name, quantity, b->x, 0, n, Eigen::VectorXd(n), Eigen::Matrix3d::Identity(), I};
+      Quantity q{rig.inertial[i].name,        quantity, b->x, 0, n, Eigen::VectorXd(n),
+                 Eigen::Matrix3d::Identity(), I};
       q.symbol = symbol;
       for (int k = 0; k < n; ++k) {
         q.prior_std[k] = b->prior_std[elements[k]];
@@ -315,7 +316,7 @@ void Estimator::Impl::checkObservability() {
     // (hysteresis). Their gains hover near the ratio when a reading component is only nearly
     // constant, and each release leaves a direction free with little information in the window
     // (what left it while held added none), where it moves on noise before it is held again.
-    const double ratio = q.symbol.empty() ? options.observability_ratio
+    const double ratio = q.symbol.empty()       ? options.observability_ratio
                          : holds.count(q.block) ? 4.0 * options.imu_intrinsics_observability_ratio
                                                 : options.imu_intrinsics_observability_ratio;
     if (!(ratio > 0.0)) continue;

@@ -96,9 +96,9 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
     if (double* imu_in = imuIntrinsics(0)) {
       // Raw readings re-integrated at the state's biases and the current intrinsics, with the
       // intrinsics' Jacobian (tag_reprojection_factor.h).
-      const ImuDeltas d = reintegrate(imuBetween(sk->t, t_a),
-                                      deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
-                                      imu_intrinsics[0]->frame, true);
+      const ImuDeltas d = reintegrate(
+          imuBetween(sk->t, t_a), deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
+          imu_intrinsics[0]->frame, true);
       anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
       blocks->push_back(imu_in);
     } else {

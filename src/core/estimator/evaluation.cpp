@@ -173,8 +173,8 @@ std::string imuIntrinsicRows(const InertialSensor& ini, const InertialSensor& es
   const InertialCalibrationStd& sd = *est.std;
   const auto dD = [&](const ImuIntrinsics& a) {
     Eigen::Matrix<double, 3, 6> d;
-    d << a.Tw.inverse() - ref.Tw.inverse(), (gyro ? Eigen::Matrix3d::Zero()
-                                                  : Eigen::Matrix3d(a.Ta.inverse() - ref.Ta.inverse()));
+    d << a.Tw.inverse() - ref.Tw.inverse(),
+        (gyro ? Eigen::Matrix3d::Zero() : Eigen::Matrix3d(a.Ta.inverse() - ref.Ta.inverse()));
     return d.cwiseAbs().maxCoeff();
   };
   const auto within = [](const Eigen::Matrix3d& err, const Eigen::Matrix3d& s) {
@@ -182,14 +182,17 @@ std::string imuIntrinsicRows(const InertialSensor& ini, const InertialSensor& es
   };
   const char* name = est.name.c_str();
   const bool compare = truth != nullptr;
-  const auto status = [&](bool inside) { return compare ? (inside ? "yes" : "no") : "(change from initial)"; };
+  const auto status = [&](bool inside) {
+    return compare ? (inside ? "yes" : "no") : "(change from initial)";
+  };
   std::string out;
   out += row(name, "Dw, Da [1e-3]", compare ? dD(ini.intrinsics) * 1e3 : 0.0, dD(x) * 1e3,
              3e3 * std::max(sd.Tw.maxCoeff(), gyro ? 0.0 : sd.Ta.maxCoeff()),
              status(within(x.Tw - ref.Tw, sd.Tw) && (gyro || within(x.Ta - ref.Ta, sd.Ta))));
   if (gyro) return out;
   if (sd.Tg.maxCoeff() > 0.0) {
-    out += row(name, "Tg [1e-3]", compare ? (ini.intrinsics.Tg - ref.Tg).cwiseAbs().maxCoeff() * 1e3 : 0.0,
+    out += row(name, "Tg [1e-3]",
+               compare ? (ini.intrinsics.Tg - ref.Tg).cwiseAbs().maxCoeff() * 1e3 : 0.0,
                (x.Tg - ref.Tg).cwiseAbs().maxCoeff() * 1e3, 3e3 * sd.Tg.maxCoeff(),
                status(within(x.Tg - ref.Tg, sd.Tg)));
   }
@@ -197,9 +200,10 @@ std::string imuIntrinsicRows(const InertialSensor& ini, const InertialSensor& es
     return lie::logSO3(ref.R_IMUtoACC.transpose() * R);
   };
   const Eigen::Vector3d e1 = angle(x.R_IMUtoACC);
-  out += row(name, "R_IMUtoACC [deg]", compare ? angle(ini.intrinsics.R_IMUtoACC).norm() * kDeg : 0.0,
-             e1.norm() * kDeg, 3.0 * sd.R_IMUtoACC.maxCoeff() * kDeg,
-             status((e1.array().abs() <= 3.0 * sd.R_IMUtoACC.array()).all()));
+  out +=
+      row(name, "R_IMUtoACC [deg]", compare ? angle(ini.intrinsics.R_IMUtoACC).norm() * kDeg : 0.0,
+          e1.norm() * kDeg, 3.0 * sd.R_IMUtoACC.maxCoeff() * kDeg,
+          status((e1.array().abs() <= 3.0 * sd.R_IMUtoACC.array()).all()));
   return out;
 }
 

@@ -94,8 +94,7 @@ ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0
   out.Tw.triangularView<Eigen::StrictlyLower>().setZero();
   out.Ta.triangularView<Eigen::StrictlyLower>().setZero();
   for (int k = 0; k < 9; ++k) out.Tg(k / 3, k % 3) = block[L::kTg + k];
-  const Eigen::Matrix3d R_acc_to_imu =
-      R0 * lie::expSO3(Eigen::Vector3d(block + L::kAccRotation));
+  const Eigen::Matrix3d R_acc_to_imu = R0 * lie::expSO3(Eigen::Vector3d(block + L::kAccRotation));
   out.R_IMUtoACC = R_acc_to_imu.transpose();
   return out;
 }
@@ -118,7 +117,8 @@ ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDelta
                       const ImuIntrinsicsFrame& frame, bool jacobians) {
   ImuDeltas out;
   out.x0 = x;
-  if (!samples.empty()) out.duration = toSeconds(samples.back().stamp_ns - samples.front().stamp_ns);
+  if (!samples.empty())
+    out.duration = toSeconds(samples.back().stamp_ns - samples.front().stamp_ns);
   if (!jacobians) {
     integrate<double>(samples, x, frame, &out.dR, &out.dp, &out.dv);
     return out;

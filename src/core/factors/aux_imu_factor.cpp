@@ -62,10 +62,10 @@ AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegr
   frame_ = frame;
   mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
   if (mode_ == IntrinsicsLinearization::kFixed) {
-    fixed_ = reintegrate(
-        pre_->samples(),
-        deltaVariables(pre_->biasGyro().data(), pre_->biasAccel().data(), intrinsics0), frame_,
-        true);
+    fixed_ =
+        reintegrate(pre_->samples(),
+                    deltaVariables(pre_->biasGyro().data(), pre_->biasAccel().data(), intrinsics0),
+                    frame_, true);
   }
 }
 
@@ -127,7 +127,9 @@ void AuxImuFactor::residual(double const* const* parameters, const ImuDeltas& d,
   x.template head<3>() = abg_i;
   x.template segment<3>(3) = aba_i;
   for (int k = 0; k < kImuIntrinsicsSize; ++k) {
-    x[6 + k] = intrinsics_ ? tangent_jet::perturbScalarIfPresent<T>(parameters[9][k], kIntrinsicsJet + k) : T(d.x0[6 + k]);
+    x[6 + k] = intrinsics_
+                   ? tangent_jet::perturbScalarIfPresent<T>(parameters[9][k], kIntrinsicsJet + k)
+                   : T(d.x0[6 + k]);
   }
   const CorrectedDeltas<T> deltas = correctDeltas<T>(d, x);
   const Mat3<T>& dR = deltas.dR;
@@ -152,11 +154,11 @@ bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
                             double** jacobians) const {
   const int bias_at = model_ == AuxImuModel::kVelocityState ? 3 : 0;
   ImuDeltas local;
-  const ImuDeltas* d = &factorDeltas(
-      *pre_, intrinsics_, mode_, fixed_,
-      deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3,
-                     intrinsics_ ? parameters[9] : nullptr),
-      frame_, jacobians != nullptr, &local);
+  const ImuDeltas* d =
+      &factorDeltas(*pre_, intrinsics_, mode_, fixed_,
+                    deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3,
+                                   intrinsics_ ? parameters[9] : nullptr),
+                    frame_, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
     return true;

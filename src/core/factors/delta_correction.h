@@ -18,7 +18,8 @@ struct CorrectedDeltas {
 
 // x: the 30 variables [b_g b_a intrinsics] as T.
 template <typename T>
-CorrectedDeltas<T> correctDeltas(const ImuDeltas& d, const Eigen::Matrix<T, kDeltaVariables, 1>& x) {
+CorrectedDeltas<T> correctDeltas(const ImuDeltas& d,
+                                 const Eigen::Matrix<T, kDeltaVariables, 1>& x) {
   Eigen::Matrix<T, kDeltaVariables, 1> dx = x;
   for (int i = 0; i < kDeltaVariables; ++i) dx[i] -= T(d.x0[i]);
   const Eigen::Matrix<T, 9, 1> lin = d.J.cast<T>() * dx;

@@ -62,9 +62,9 @@ GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time
   mode_ = mode;
   mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
   if (mode_ == IntrinsicsLinearization::kFixed) {
-    fixed_ = reintegrate(pre_->samples(),
-                         deltaVariables(pre_->biasGyro().data(), nullptr, intrinsics0), kGyroFrame,
-                         true);
+    fixed_ =
+        reintegrate(pre_->samples(), deltaVariables(pre_->biasGyro().data(), nullptr, intrinsics0),
+                    kGyroFrame, true);
   }
 }
 
@@ -93,8 +93,8 @@ void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T
   for (int k = 0; k < kDeltaVariables; ++k) x[k] = T(d.x0[k]);
   x.template head<3>() = abg_i;
   for (int k = 0; intrinsics_ && k < 6; ++k) {
-    x[6 + ImuIntrinsicsLayout::kDw + k] =
-        tangent_jet::perturbScalarIfPresent<T>(parameters[8][ImuIntrinsicsLayout::kDw + k], kDwJet + k);
+    x[6 + ImuIntrinsicsLayout::kDw + k] = tangent_jet::perturbScalarIfPresent<T>(
+        parameters[8][ImuIntrinsicsLayout::kDw + k], kDwJet + k);
   }
   const Mat3<T> dR = correctDeltas<T>(d, x).dR;
   Eigen::Matrix<T, 6, 1> r;
@@ -106,10 +106,10 @@ void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T
 bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
                           double** jacobians) const {
   ImuDeltas local;
-  const ImuDeltas* d = &factorDeltas(
-      *pre_, intrinsics_, mode_, fixed_,
-      deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr), kGyroFrame,
-      jacobians != nullptr, &local);
+  const ImuDeltas* d =
+      &factorDeltas(*pre_, intrinsics_, mode_, fixed_,
+                    deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr),
+                    kGyroFrame, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
     return true;

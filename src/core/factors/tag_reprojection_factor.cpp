@@ -188,9 +188,9 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
     if constexpr (Dim > kStageDim) {
       // The intrinsics' first-order change, with its own directions (chained below).
       const Eigen::Matrix<double, 9, 1> lin =
-          a.J_intrinsics *
-          (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
-           a.intrinsics0);
+          a.J_intrinsics * (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(
+                                parameters[n_blocks + 1]) -
+                            a.intrinsics0);
       Vec3<StageJet> e_R, e_p, e_v;
       for (int i = 0; i < 3; ++i) {
         e_R[i] = StageJet(0.0, kDeltaJet + i);
@@ -271,8 +271,8 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
       }
       if constexpr (Dim > kStageDim) {
         if (jacobians[n_blocks + 1] != nullptr) {
-          Eigen::Map<Eigen::Matrix<double, 1, kImuIntrinsicsSize>> out(
-              jacobians[n_blocks + 1] + kImuIntrinsicsSize * r);
+          Eigen::Map<Eigen::Matrix<double, 1, kImuIntrinsicsSize>> out(jacobians[n_blocks + 1] +
+                                                                       kImuIntrinsicsSize * r);
           out = J.row(i).template segment<3>(kDeltaJet) * rotation_chain +
                 J.row(i).template segment<6>(kDeltaJet + 3) * anchor_.J_intrinsics.bottomRows<6>();
         }

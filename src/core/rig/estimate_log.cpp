@@ -128,7 +128,8 @@ Status EstimateLog::write(const std::string& dir) const {
       file);
   for (const char* prefix : {",", ",std_"}) {
     for (const char* m : {"tw", "ta"}) {
-      for (const char* e : {"11", "12", "22", "13", "23", "33"}) std::fprintf(file, "%s%s%s", prefix, m, e);
+      for (const char* e : {"11", "12", "22", "13", "23", "33"})
+        std::fprintf(file, "%s%s%s", prefix, m, e);
     }
     for (int e = 0; e < 9; ++e) std::fprintf(file, "%stg%d%d", prefix, e / 3 + 1, e % 3 + 1);
     for (const char* a : {"acc_rx", "acc_ry", "acc_rz"}) std::fprintf(file, "%s%s", prefix, a);
