@@ -93,7 +93,8 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
     const double dt_nominal = toSeconds(frame.stamp_ns - t_a);
     TagReprojectionFactor::ImuAnchor anchor;
     *blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
-    if (double* imu_in = imuIntrinsics(0)) {
+    double* imu_in = imuIntrinsics(0);
+    if (imu_in != nullptr && t_a - sk->t > kIntrinsicsAnchorSpanNs) {
       // Raw readings re-integrated at the state's biases and the current intrinsics, with the
       // intrinsics' Jacobian (tag_reprojection_factor.h).
       const ImuDeltas d = reintegrate(
@@ -102,8 +103,13 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
       anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
       blocks->push_back(imu_in);
     } else {
-      auto pre = preintegrate(sk->t, t_a, Eigen::Vector3d(sk->speed_bias + 3),
-                              Eigen::Vector3d(sk->speed_bias + 6));
+      // Without intrinsics, or over so short a span (cam0's frames, at their state's time) that
+      // they cannot matter: readings corrected by the current estimate, no intrinsics block
+      // (the biases in corrected form, imu_correction.h; both identity without intrinsics).
+      Eigen::Vector3d bg, ba;
+      propagationBiases(Eigen::Vector3d(sk->speed_bias + 3), Eigen::Vector3d(sk->speed_bias + 6),
+                        &bg, &ba);
+      auto pre = preintegrate(sk->t, t_a, bg, ba, true);
       anchor = TagReprojectionFactor::makeAnchor(*pre, dt_nominal, at.gyro, at.accel, alpha);
     }
     return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
