@@ -206,9 +206,10 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   ASSERT_TRUE(estimator.computeCovariance().ok());
   const Rig estimate = estimator.calibration();
   // Not asserted: the elements the motion still observes, dw11 (the scale about the axis) above
-  // all, are near-degenerate here and end wherever rounding takes them: run alone this test
-  // measures 1.3 / 2.3 / 1.0 for imu0 / imu1 / imu2's largest error/sigma, after other tests in
-  // the same process (other heap addresses, so another parameter order in Ceres) 2.1 to 18.
+  // all, are near-degenerate here and end wherever rounding takes them. Run alone this test
+  // measures 2.1 / 2.4 / 1.4 for imu0 / imu1 / imu2's largest error/sigma, after another test in
+  // the same process (other heap addresses, so another parameter order in Ceres) 1.7 / 1.9 / 1.0,
+  // and an earlier build reached 8-18 there.
   allErrors(run, estimate, "yaw only");
 
   // Reported, in the report's names.
