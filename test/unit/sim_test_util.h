@@ -6,6 +6,7 @@
 #include "mvis/common/lie.h"
 #include "mvis/estimator/imu_reintegration.h"
 #include "mvis/rig/rig.h"
+#include "mvis/sim/imu_simulator.h"
 #include "mvis/sim/trajectory.h"
 
 namespace mvis::test {
@@ -30,6 +31,22 @@ inline InertialSensor idealImu(double rate_hz) {
   s.update_rate = rate_hz;
   s.noise = {2e-3, 3e-3, 1.7e-4, 1.9e-5};
   return s;
+}
+
+// `sensor`'s noise-free, bias-free readings over base times [t_i, t_j] [s] of `trajectory`
+// (t0 = 0, the sensor's clock = the base clock).
+inline std::vector<ImuMeasurement> noiseFreeReadings(const InertialSensor& sensor,
+                                                     const SinusoidTrajectory& trajectory,
+                                                     double t_i, double t_j) {
+  const TrajectoryFunction base = [&](double t) { return trajectory.evaluate(t); };
+  ImuSimulationOptions o;
+  o.noise = false;
+  o.biases = false;
+  std::vector<ImuMeasurement> out;
+  for (const auto& s : simulateImu(sensor, base, 0, fromSeconds(t_i), fromSeconds(t_j), o)) {
+    out.push_back({s.stamp_ns, s.gyro, s.accel});
+  }
+  return out;
 }
 
 // Intrinsics of the report's Table 4 size (3e-3 on Dw, Da, 1e-3 on Tg, 3e-3 rad on R_IMUtoACC),

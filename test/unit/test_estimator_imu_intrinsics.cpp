@@ -124,9 +124,9 @@ TEST(Estimator, CalibratesImuIntrinsicsByReintegration) {
   const auto e = allErrors(run, estimate, "re-integrated");
   for (std::size_t i = 0; i < e.size(); ++i) {
     const std::string& name = run.truth.inertial[i].name;
-    // Measured at 30 s (seed 7): Dw/Da 1.8e-3 / 0.8e-3 / 0.6e-3 (imu0 / imu1 / imu2, from
-    // 4-5e-3), Tg 1.4e-4 and 1.1e-4 (from 1.4e-3 and 1.9e-3), R_IMUtoACC 0.04 and 0.06 deg (from
-    // 0.26 and 0.33). Bounds 1.5x those.
+    // Measured at 30 s (seed 7, over this session's builds): Dw/Da 1.7-1.8e-3 / 0.8e-3 /
+    // 0.6-0.7e-3 (imu0 / imu1 / imu2, from 4-5e-3), Tg 1.1-1.6e-4 (from 1.4e-3 and 1.9e-3),
+    // R_IMUtoACC 0.03-0.06 deg (from 0.26 and 0.33). Bounds 1.5x those.
     EXPECT_LT(e[i].D, 2.7e-3) << name;
     EXPECT_LT(e[i].Tg, 2.5e-4) << name;
     EXPECT_LT(e[i].rotation, 0.1) << name;
@@ -167,14 +167,15 @@ TEST(Estimator, FixedIntrinsicsLinearizationEndsWorse) {
       sigma[m] = std::max(sigma[m], e.sigma);
     }
   }
-  // Measured: largest Dw/Da element error 4.3e-3 re-integrated, 7.2e-3 fixed (from 5e-2);
-  // largest error/sigma 18 and 45. Neither is consistent at this size after 30 s (the linearized
-  // marginalization prior keeps some of the early, large errors), and the margin moves with
-  // unrelated changes (an earlier version: 2.1e-3 against 6.6e-3, 13 against 39), hence the
-  // loose ratios.
+  // What holds in every build measured (five, differing only in rounding-level details, which
+  // this far-off start amplifies): the fixed linearization ends overconfident by ~40 sigma
+  // (largest error/sigma 39-45), re-integration at most half that (5-19). The errors themselves
+  // are not reliably ordered: largest Dw/Da element 2.1-4.7e-3 re-integrated against 5.0-7.3e-3
+  // fixed (from 5e-2), e.g. 4.0e-3 against 5.0e-3 in the last build.
   EXPECT_LT(worst[0], 6e-3);
-  EXPECT_GT(worst[1], 1.4 * worst[0]);
-  EXPECT_GT(sigma[1], 2.0 * sigma[0]);
+  EXPECT_GE(worst[1], worst[0]);
+  EXPECT_GT(sigma[1], 25.0);
+  EXPECT_LT(sigma[0], 0.5 * sigma[1]);
 }
 
 // Report Table 3 on yaw-only motion (about world z, which is nearly imu0's x axis): the rates
@@ -206,10 +207,10 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   ASSERT_TRUE(estimator.computeCovariance().ok());
   const Rig estimate = estimator.calibration();
   // Not asserted: the elements the motion still observes, dw11 (the scale about the axis) above
-  // all, are near-degenerate here and end wherever rounding takes them. Run alone this test
-  // measures 2.1 / 2.4 / 1.4 for imu0 / imu1 / imu2's largest error/sigma, after another test in
-  // the same process (other heap addresses, so another parameter order in Ceres) 1.7 / 1.9 / 1.0,
-  // and an earlier build reached 8-18 there.
+  // all, are near-degenerate here and end wherever rounding takes them: imu0 / imu1 / imu2's
+  // largest error/sigma measured 1.3-2.6 / 1.9-2.9 / 0.9-4.3 over this session's builds and
+  // process histories (other heap addresses, so another parameter order in Ceres), and one
+  // build reached 8-18 after another test in the same process.
   allErrors(run, estimate, "yaw only");
 
   // Reported, in the report's names.

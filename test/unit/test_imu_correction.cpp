@@ -25,6 +25,11 @@ TEST(ImuCorrection, CorrectedReadingsFollowTheCalibratedModel) {
   // The biases the corrected readings carry (imu_correction.h).
   const Eigen::Vector3d b_a_c = in.R_IMUtoACC.transpose() * in.Ta.inverse() * b_a;
   const Eigen::Vector3d b_g_c = in.Tw.inverse() * (b_g - in.Tg * b_a_c);
+  // biases() gives the same (what IMU-rate propagation subtracts from corrected readings).
+  Eigen::Vector3d b_g_out, b_a_out;
+  correction.biases(b_g, b_a, &b_g_out, &b_a_out);
+  EXPECT_LT((b_a_out - b_a_c).norm(), 1e-15);
+  EXPECT_LT((b_g_out - b_g_c).norm(), 1e-15);
   for (int k = 0; k < 5; ++k) {
     const Eigen::Vector3d w_I(0.3 * k - 0.5, 1.1 - 0.2 * k, 0.4), a_I(0.5, -9.7 + k, 1.0 - k);
     ImuMeasurement raw;

@@ -21,16 +21,7 @@ using test::tableFourIntrinsics;
 constexpr double kTi = 3.0, kTj = 3.1;
 
 std::vector<ImuMeasurement> readings(const InertialSensor& sensor) {
-  const auto trajectory = handheld();
-  const TrajectoryFunction base = [&](double t) { return trajectory.evaluate(t); };
-  ImuSimulationOptions o;
-  o.noise = false;
-  o.biases = false;
-  std::vector<ImuMeasurement> out;
-  for (const auto& s : simulateImu(sensor, base, 0, fromSeconds(kTi), fromSeconds(kTj), o)) {
-    out.push_back({s.stamp_ns, s.gyro, s.accel});
-  }
-  return out;
+  return test::noiseFreeReadings(sensor, handheld(), kTi, kTj);
 }
 
 // Pose and velocity errors at t_j when predicting from the truth at t_i with the deltas.

@@ -192,14 +192,7 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
   const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
   InertialSensor imu = s.rig.inertial[0];
   imu.intrinsics = test::tableFourIntrinsics();
-  const TrajectoryFunction base = [&](double t) { return s.trajectory.evaluate(t); };
-  ImuSimulationOptions noise_free;
-  noise_free.noise = false;
-  noise_free.biases = false;
-  std::vector<ImuMeasurement> readings;
-  for (const auto& r : simulateImu(imu, base, 0, fromSeconds(t_k), fromSeconds(t_a), noise_free)) {
-    readings.push_back({r.stamp_ns, r.gyro, r.accel});
-  }
+  std::vector<ImuMeasurement> readings = test::noiseFreeReadings(imu, s.trajectory, t_k, t_a);
   // The reading at exactly t_a, through the model (report Eq. 1-2).
   Eigen::Vector3d w, f;
   trueInertialMotion(imu, s.trajectory.evaluate(t_a), &w, &f);

@@ -32,6 +32,9 @@ struct ImuCorrection {
   explicit ImuCorrection(const ImuIntrinsics& intrinsics = ImuIntrinsics());
   // The corrected reading; `gyro_only`: the accelerometer part is left as it is.
   ImuMeasurement apply(const ImuMeasurement& m, bool gyro_only) const;
+  // The biases b_g', b_a' that corrected readings carry for raw biases b_g, b_a.
+  void biases(const Eigen::Vector3d& bias_gyro, const Eigen::Vector3d& bias_accel,
+              Eigen::Vector3d* corrected_gyro, Eigen::Vector3d* corrected_accel) const;
 };
 
 }  // namespace mvis

@@ -38,6 +38,9 @@ struct ImuIntrinsicsLayout {
   static constexpr int kDw = 0, kDa = 6, kTg = 12, kAccRotation = 21;
 };
 
+// Position of the upper-triangular element (r, c), r <= c, among the 6 column-wise entries.
+constexpr int upperIndex(int r, int c) { return c * (c + 1) / 2 + r; }
+
 // Writes `in` as a block relative to the rotation R0 = in.R_IMUtoACC^T (theta = 0).
 void intrinsicsToBlock(const ImuIntrinsics& in, double* block);
 // The rpng intrinsics of a block whose rotation is relative to R0 (R_ACCtoIMU at theta = 0).

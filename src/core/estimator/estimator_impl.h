@@ -260,6 +260,9 @@ struct Estimator::Impl {
   // Per inertial sensor: its intrinsics block, or null when they are not estimated
   // (estimator_intrinsics.cpp).
   std::vector<std::unique_ptr<ImuIntrinsicsBlock>> imu_intrinsics;
+  // The base IMU's current intrinsics estimate as a correction (identity when not estimated),
+  // refreshed after every solve: the values only change there.
+  ImuCorrection base_correction;
 
   Impl(const Rig& r, const EstimatorOptions& o) : rig(r), options(o) {
     initImuIntrinsics();
@@ -348,6 +351,8 @@ struct Estimator::Impl {
   // ---- IMU intrinsics (estimator_intrinsics.cpp) -----------------------------------------
   // Sets up imu_intrinsics and imu_corrections from the rig and options.
   void initImuIntrinsics();
+  // base_correction from the base IMU's current intrinsics block.
+  void refreshBaseCorrection();
   // Adds the estimated sensors' blocks with their priors to the problem.
   void addImuIntrinsicsBlocks();
   bool isImuIntrinsics(const double* block) const {
@@ -361,7 +366,8 @@ struct Estimator::Impl {
     return imu_intrinsics[i] ? imu_intrinsics[i]->x : nullptr;
   }
   // A base reading for IMU-rate propagation: corrected by the current intrinsics estimate, and
-  // the biases to subtract from it (ImuCorrection's transformed biases).
+  // the biases to subtract from it (ImuCorrection's transformed biases). Identity when the base
+  // IMU's intrinsics are not estimated (its readings are corrected as they arrive).
   ImuMeasurement propagationReading(const ImuMeasurement& m) const;
   void propagationBiases(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
                          Eigen::Vector3d* bg_out, Eigen::Vector3d* ba_out) const;

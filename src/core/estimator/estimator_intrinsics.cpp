@@ -9,19 +9,6 @@ namespace {
 
 using L = ImuIntrinsicsLayout;
 
-// The block's matrices: a = M (a_m - b_a), w = Dw (w_m - b_g - Tg a).
-struct Correction {
-  Eigen::Matrix3d M, Dw, Tg;
-};
-Correction correctionOf(const ImuIntrinsicsBlock& b) {
-  Correction c;
-  c.Dw = upperTriangular(b.x + L::kDw);
-  c.M = b.frame.R0 * lie::expSO3(Eigen::Vector3d(b.x + L::kAccRotation)) *
-        upperTriangular(b.x + L::kDa);
-  c.Tg = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(b.x + L::kTg);
-  return c;
-}
-
 }  // namespace
 
 void Estimator::Impl::initImuIntrinsics() {
@@ -48,7 +35,7 @@ void Estimator::Impl::initImuIntrinsics() {
     const auto pick = [](double given, double fallback) { return given > 0.0 ? given : fallback; };
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r <= c; ++r) {
-        const int k = c * (c + 1) / 2 + r;
+        const int k = upperIndex(r, c);
         b->prior_std[L::kDw + k] =
             pick(sd ? sd->Tw(r, c) : 0.0, options.imu_scale_misalignment_prior);
         b->prior_std[L::kDa + k] =
@@ -92,26 +79,20 @@ void Estimator::Impl::addImuIntrinsicsBlocks() {
   }
 }
 
+void Estimator::Impl::refreshBaseCorrection() {
+  if (imu_intrinsics[0]) {
+    base_correction =
+        ImuCorrection(intrinsicsFromBlock(imu_intrinsics[0]->x, imu_intrinsics[0]->frame.R0));
+  }
+}
+
 ImuMeasurement Estimator::Impl::propagationReading(const ImuMeasurement& m) const {
-  if (!imu_intrinsics[0]) return m;
-  const Correction c = correctionOf(*imu_intrinsics[0]);
-  ImuMeasurement out = m;
-  out.accel = c.M * m.accel;
-  out.gyro = c.Dw * (m.gyro - c.Tg * out.accel);
-  return out;
+  return base_correction.apply(m, false);
 }
 
 void Estimator::Impl::propagationBiases(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
                                         Eigen::Vector3d* bg_out, Eigen::Vector3d* ba_out) const {
-  if (!imu_intrinsics[0]) {
-    *bg_out = bg;
-    *ba_out = ba;
-    return;
-  }
-  // Corrected readings without the biases carry b_a' = M b_a, b_g' = Dw (b_g - Tg b_a').
-  const Correction c = correctionOf(*imu_intrinsics[0]);
-  *ba_out = c.M * ba;
-  *bg_out = c.Dw * (bg - c.Tg * *ba_out);
+  base_correction.biases(bg, ba, bg_out, ba_out);
 }
 
 void Estimator::Impl::imuIntrinsicsCovariance(const ceres::Covariance& cov) {
@@ -150,7 +131,7 @@ void Estimator::Impl::writeImuIntrinsics(Rig* out) const {
           Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
           E(r, c) = 1.0;
           const Eigen::Matrix3d dT = -T * E * T;
-          J.col(c * (c + 1) / 2 + r) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(dT.data());
+          J.col(upperIndex(r, c)) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(dT.data());
         }
       }
       const Eigen::Matrix<double, 9, 1> var =

@@ -292,8 +292,8 @@ void Estimator::Impl::checkObservability() {
     std::vector<std::vector<Term>> gyro(3), gravity(3), acc(3);
     for (int r = 0; r < 3; ++r) {
       for (int c = r; c < 3; ++c) {
-        gyro[r].push_back({L::kDw + c * (c + 1) / 2 + r, unit(c)});
-        acc[r].push_back({L::kDa + c * (c + 1) / 2 + r, unit(3 + c)});
+        gyro[r].push_back({L::kDw + upperIndex(r, c), unit(c)});
+        acc[r].push_back({L::kDa + upperIndex(r, c), unit(3 + c)});
       }
       for (int c = 0; c < 3; ++c) gravity[r].push_back({L::kTg + 3 * r + c, -unit(3 + c)});
       // Row r of -hat(a): the regressor of dtheta_k is -(e_r x e_k) . a.

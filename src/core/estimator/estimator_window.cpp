@@ -262,6 +262,7 @@ SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
   o.logging_type = ceres::SILENT;
   ceres::Solver::Summary s;
   ceres::Solve(o, problem.get(), &s);
+  refreshBaseCorrection();
   ++counters.solves;
   SolveSummary out = windowSummary();
   out.iterations = static_cast<int>(s.iterations.size());

@@ -23,4 +23,11 @@ ImuMeasurement ImuCorrection::apply(const ImuMeasurement& m, bool gyro_only) con
   return out;
 }
 
+void ImuCorrection::biases(const Eigen::Vector3d& bias_gyro, const Eigen::Vector3d& bias_accel,
+                           Eigen::Vector3d* corrected_gyro,
+                           Eigen::Vector3d* corrected_accel) const {
+  *corrected_accel = to_accel * bias_accel;
+  *corrected_gyro = to_gyro * bias_gyro - gravity * *corrected_accel;
+}
+
 }  // namespace mvis

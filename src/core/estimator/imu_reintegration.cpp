@@ -13,9 +13,6 @@ using tangent_jet::expT;
 using tangent_jet::Mat3;
 using tangent_jet::Vec3;
 
-// Column-wise upper-triangular index of element (r, c), r <= c.
-constexpr int upperIndex(int r, int c) { return c * (c + 1) / 2 + r; }
-
 template <typename T>
 Mat3<T> upperT(const T* d) {
   Mat3<T> M = Mat3<T>::Zero();
@@ -108,7 +105,12 @@ ImuDeltas::Vector30d deltaVariables(const double* bias_gyro, const double* bias_
     x.tail<kImuIntrinsicsSize>() =
         Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(intrinsics);
   } else {
-    intrinsicsToBlock(ImuIntrinsics(), x.data() + 6);
+    static const ImuDeltas::Vector30d identity = [] {
+      ImuDeltas::Vector30d v = ImuDeltas::Vector30d::Zero();
+      intrinsicsToBlock(ImuIntrinsics(), v.data() + 6);
+      return v;
+    }();
+    x.tail<kImuIntrinsicsSize>() = identity.tail<kImuIntrinsicsSize>();
   }
   return x;
 }

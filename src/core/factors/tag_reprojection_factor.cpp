@@ -40,25 +40,7 @@ TagReprojectionFactor* TagReprojectionFactor::poseBased(DistortionModel model,
 TagReprojectionFactor::ImuAnchor TagReprojectionFactor::makeAnchor(
     const ImuPreintegration& pre, double dt_nominal, const Eigen::Vector3d& gyro,
     const Eigen::Vector3d& accel, const Eigen::Vector3d& angular_acceleration) {
-  using P = ImuPreintegration;
-  ImuAnchor a;
-  a.T_a = pre.duration();
-  a.dt_nominal = dt_nominal;
-  a.dR = pre.deltaR();
-  a.dp = pre.deltaP();
-  a.dv = pre.deltaV();
-  a.bias_gyro0 = pre.biasGyro();
-  a.bias_accel0 = pre.biasAccel();
-  const auto& J = pre.jacobian();
-  a.J_R_bg = J.block<3, 3>(P::kRotation, P::kBiasGyro);
-  a.J_p_bg = J.block<3, 3>(P::kPosition, P::kBiasGyro);
-  a.J_p_ba = J.block<3, 3>(P::kPosition, P::kBiasAccel);
-  a.J_v_bg = J.block<3, 3>(P::kVelocity, P::kBiasGyro);
-  a.J_v_ba = J.block<3, 3>(P::kVelocity, P::kBiasAccel);
-  a.gyro = gyro;
-  a.accel = accel;
-  a.angular_acceleration = angular_acceleration;
-  return a;
+  return makeAnchor(deltasOf(pre), false, dt_nominal, gyro, accel, angular_acceleration);
 }
 
 TagReprojectionFactor::ImuAnchor TagReprojectionFactor::makeAnchor(
@@ -149,6 +131,14 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
   // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
+  // With the IMU intrinsics: the anchor deltas' first-order change J_I (x_I - x_I0).
+  Eigen::Matrix<double, 9, 1> lin = Eigen::Matrix<double, 9, 1>::Zero();
+  if constexpr (Dim > kStageDim) {
+    lin =
+        anchor_.J_intrinsics *
+        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
+         anchor_.intrinsics0);
+  }
   const double* pose_k = parameters[0];
   const Mat3<StageJet> R_k = perturbRotation(poseRotation(pose_k), 0);
   const Vec3<StageJet> p_k = perturbVector(pose_k + 4, 3);
@@ -187,10 +177,6 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
         a.dv.cast<StageJet>() + a.J_v_bg.cast<StageJet>() * dbg + a.J_v_ba.cast<StageJet>() * dba;
     if constexpr (Dim > kStageDim) {
       // The intrinsics' first-order change, with its own directions (chained below).
-      const Eigen::Matrix<double, 9, 1> lin =
-          a.J_intrinsics * (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(
-                                parameters[n_blocks + 1]) -
-                            a.intrinsics0);
       Vec3<StageJet> e_R, e_p, e_v;
       for (int i = 0; i < 3; ++i) {
         e_R[i] = StageJet(0.0, kDeltaJet + i);
@@ -235,10 +221,6 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   // d(anchor rotation perturbation) / d(IMU intrinsics): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d).
   Eigen::Matrix<double, 3, kImuIntrinsicsSize> rotation_chain;
   if constexpr (Dim > kStageDim) {
-    const Eigen::Matrix<double, 9, 1> lin =
-        anchor_.J_intrinsics *
-        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
-         anchor_.intrinsics0);
     rotation_chain = lie::rightJacobianSO3(lin.head<3>()) * anchor_.J_intrinsics.topRows<3>();
   }
   Eigen::Vector2d uv;
