@@ -112,10 +112,12 @@ TEST(TagReprojectionFactor, PoseBasedAtTruthReproducesProjections) {
 
 // The IMU-propagated factor of camera c for a frame at camera time t_c, anchored at base time
 // t_a (3 ms before the frame's true base time, as after a time-offset change), from state t_k.
+// With `landmark_tag`, only that tag's corners, as landmark states (its block last).
 std::unique_ptr<TagReprojectionFactor> imuPropagatedFactor(const Scene& s, int c, double t_k,
                                                            double t_c, double t_a,
                                                            const Eigen::Vector3d& bias_gyro,
-                                                           const Eigen::Vector3d& bias_accel) {
+                                                           const Eigen::Vector3d& bias_accel,
+                                                           int landmark_tag = -1) {
   InertialSensor imu = s.rig.inertial[0];
   const TrajectoryFunction base = [&](double t) { return s.trajectory.evaluate(t); };
   ImuSimulationOptions noise_free;
@@ -132,8 +134,39 @@ std::unique_ptr<TagReprojectionFactor> imuPropagatedFactor(const Scene& s, int c
   if (pre.endNs() != b) pre.add({b, w, f});
   const TagReprojectionFactor::ImuAnchor anchor =
       TagReprojectionFactor::makeAnchor(pre, t_c - t_a, w, f, s.trajectory.evaluate(t_a).dw_I);
-  return std::unique_ptr<TagReprojectionFactor>(TagReprojectionFactor::imuPropagated(
-      s.rig.cameras[c].distortion_model, observe(s, c, t_c), 0.5, anchor));
+  std::vector<CornerObservation> corners = observe(s, c, t_c);
+  if (landmark_tag >= 0) {
+    std::vector<CornerObservation> tag;
+    for (auto& o : corners) {
+      for (int k = 0; k < 4; ++k) {
+        if ((o.p_G - s.rig.target->corner(landmark_tag, k)).norm() > 1e-12) continue;
+        o.landmark = k;
+        tag.push_back(o);
+      }
+    }
+    corners = tag;
+  }
+  std::unique_ptr<TagReprojectionFactor> factor(TagReprojectionFactor::imuPropagated(
+      s.rig.cameras[c].distortion_model, std::move(corners), 0.5, anchor));
+  if (landmark_tag >= 0) factor->useLandmarkBlock();
+  return factor;
+}
+
+std::vector<double> speedBiasBlock(const TrajectoryState& st);
+
+// The IMU-propagated factor's blocks at the truth of state t_k for camera c, time offset t_d,
+// then `extra` (the IMU intrinsics or a landmark block).
+std::vector<std::vector<double>> trueImuPropagatedBlocks(const Scene& s, int c, double t_k,
+                                                         double t_d, std::vector<double> extra) {
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
+                                             speedBiasBlock(sk),
+                                             {kGravity_G.x(), kGravity_G.y(), kGravity_G.z()},
+                                             poseBlock(s.rig.cameras[c].T_cam_imu),
+                                             {t_d},
+                                             intrinsicsBlock(s.rig.cameras[c])};
+  if (!extra.empty()) blocks.push_back(std::move(extra));
+  return blocks;
 }
 
 std::vector<double> speedBiasBlock(const TrajectoryState& st) {
@@ -149,13 +182,7 @@ TEST(TagReprojectionFactor, ImuPropagatedAtTruthReproducesProjections) {
   auto f =
       imuPropagatedFactor(s, 1, t_k, t_c, t_a, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
   ASSERT_GT(f->corners().size(), 30u);
-  const TrajectoryState sk = s.trajectory.evaluate(t_k);
-  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
-                                                   speedBiasBlock(sk),
-                                                   {kGravity_G.x(), kGravity_G.y(), kGravity_G.z()},
-                                                   poseBlock(s.rig.cameras[1].T_cam_imu),
-                                                   {-0.006},
-                                                   intrinsicsBlock(s.rig.cameras[1])};
+  const auto blocks = trueImuPropagatedBlocks(s, 1, t_k, -0.006, {});
   // Preintegration errs by ~1e-7 m over 13 ms and the second-order step by ~|jerk| dt^3 / 6
   // ~5e-9 m: far under 0.01 px (the pose-based interpolation above: ~0.1 px).
   EXPECT_LT(maxPixelError(*f, blocks, 0.5), 0.01);
@@ -184,6 +211,55 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
             1e-5);
 }
 
+// Without a board the corners are landmark states (report Eq. 11): at the true corners the
+// factor reproduces the projections, and its Jacobians, the landmark block's included, match
+// central differences away from the truth.
+TEST(TagReprojectionFactor, LandmarkCornersAsStates) {
+  const Scene s = makeScene(0.01);
+  const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
+  const int tag = 14;  // near the board's centre: all four corners in view
+  auto f = imuPropagatedFactor(s, 2, t_k, t_c, t_a, Eigen::Vector3d::Zero(),
+                               Eigen::Vector3d::Zero(), tag);
+  ASSERT_EQ(f->corners().size(), 4u);
+  ASSERT_EQ(f->parameter_block_sizes().back(), kTagLandmarkSize);
+  std::vector<double> landmark(kTagLandmarkSize);
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Map<Eigen::Vector3d>(landmark.data() + 3 * k) = s.rig.target->corner(tag, k);
+  }
+  std::vector<std::vector<double>> blocks = trueImuPropagatedBlocks(s, 2, t_k, 0.01, landmark);
+  EXPECT_LT(maxPixelError(*f, blocks, 0.5), 0.01);
+  // A corner 5 mm off moves its projection by pixels, and only its own.
+  blocks[6][3 * 2 + 1] += 0.005;
+  const Eigen::VectorXd r = test::evaluateResiduals(*f, blocks) * 0.5;
+  EXPECT_GT(std::abs(r[2 * 2]) + std::abs(r[2 * 2 + 1]), 1.0);
+  EXPECT_LT(std::max(r.head<4>().cwiseAbs().maxCoeff(), r.tail<2>().cwiseAbs().maxCoeff()), 0.01);
+  blocks[1] = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
+  for (int k = 0; k < kTagLandmarkSize; ++k) blocks[6][k] += 0.01 * std::sin(1.0 + k);
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&pose,   nullptr, &sphere, &pose,
+                                                         nullptr, nullptr, nullptr};
+  const auto analytic = test::analyticTangentJacobians(*f, blocks, manifolds);
+  EXPECT_LT(
+      test::jacobianMismatch(analytic, test::numericTangentJacobians(*f, blocks, manifolds, 1e-6)),
+      1e-5);
+  // Sharing the frame's camera pose with another tag's factor changes nothing: after the other
+  // factor filled it at these values, and after it was filled at other values.
+  auto other = imuPropagatedFactor(s, 2, t_k, t_c, t_a, Eigen::Vector3d::Zero(),
+                                   Eigen::Vector3d::Zero(), tag + 1);
+  const auto shared = TagReprojectionFactor::makeSharedCameraPose();
+  f->shareCameraPose(shared);
+  other->shareCameraPose(shared);
+  test::analyticTangentJacobians(*other, blocks, manifolds);
+  EXPECT_EQ(test::jacobianMismatch(test::analyticTangentJacobians(*f, blocks, manifolds), analytic),
+            0.0);
+  std::vector<std::vector<double>> moved = blocks;
+  moved[4][0] += 1e-3;
+  test::analyticTangentJacobians(*other, moved, manifolds);
+  EXPECT_EQ(test::jacobianMismatch(test::analyticTangentJacobians(*f, blocks, manifolds), analytic),
+            0.0);
+}
+
 // With the IMU intrinsics (readings made with Table 4 intrinsics): the anchor from the raw
 // readings re-integrated at them reproduces the projections, and the Jacobians, the intrinsics
 // block's included, match central differences with that block moved off the anchor's point.
@@ -208,14 +284,7 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
       TagReprojectionFactor::makeAnchor(d, true, t_c - t_a, w, f, s.trajectory.evaluate(t_a).dw_I);
   std::unique_ptr<TagReprojectionFactor> factor(TagReprojectionFactor::imuPropagated(
       s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
-  const TrajectoryState sk = s.trajectory.evaluate(t_k);
-  std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
-                                             speedBiasBlock(sk),
-                                             {kGravity_G.x(), kGravity_G.y(), kGravity_G.z()},
-                                             poseBlock(s.rig.cameras[2].T_cam_imu),
-                                             {0.01},
-                                             intrinsicsBlock(s.rig.cameras[2]),
-                                             truth};
+  std::vector<std::vector<double>> blocks = trueImuPropagatedBlocks(s, 2, t_k, 0.01, truth);
   // As without intrinsics (ImuPropagatedAtTruthReproducesProjections); intrinsics 2e-3 off
   // per element move the corners by more (the factor does depend on them).
   EXPECT_LT(maxPixelError(*factor, blocks, 0.5), 0.01);

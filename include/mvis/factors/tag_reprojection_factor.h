@@ -26,11 +26,14 @@
 //     bias when one axis stays near vertical).
 //     Linear (pose-based) interpolation errs by ~|a| T^2 / 8 between 30 Hz states, ~0.1 px at
 //     1 m on the VI-Rig, which biased its extrinsics by ~2 mm in simulation; this does not.
-// A board corner p_G (world = board frame) is then seen at
+// A corner p_G is then seen at
 //   p_C = R_C_I R(t)^T (p_G - p(t)) + p_C_I
 //   z = pi(k, d, p_C) + n,  n ~ N(0, sigma^2 I2)
 // with pi the pinhole projection and distortion of mvis/camera/camera_model.h. The residual is
-// (pi(...) - z) / sigma for each corner, 2 N residuals.
+// (pi(...) - z) / sigma for each corner, 2 N residuals. p_G is either a known board point (world =
+// board frame) or, without a board (report Eq. 11), a landmark state: the factor then takes one
+// more block, a tag's four corners [p_G,0 .. p_G,3] (12 values, world frame), and each corner
+// names its index in it; dz/dp_G = dpi/dp_C R_C_G.
 //
 // Parameters:
 //   kinematic:       pose_k [7], speed_bias_k [9], extrinsic T_C_I [7], time_offset [1],
@@ -38,6 +41,7 @@
 //   pose-based:      pose_k [7], pose_k+1 [7], extrinsic [7], time_offset [1], intrinsics [8]
 //   IMU-propagated:  pose_k [7], speed_bias_k [9], gravity [3], extrinsic [7], time_offset [1],
 //                    intrinsics [8], and with the IMU intrinsics the base IMU's block [24]
+//   then, with landmarks, the tag's corners [12]
 // Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame by forward-mode
 // automatic differentiation in the tangent directions of the blocks (pose and extrinsic
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
@@ -51,6 +55,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <memory>
 #include <vector>
 
 #include "mvis/estimator/imu_preintegration.h"
@@ -60,9 +65,13 @@
 namespace mvis {
 
 struct CornerObservation {
-  Eigen::Vector3d p_G = Eigen::Vector3d::Zero();  // board point [m]
+  Eigen::Vector3d p_G = Eigen::Vector3d::Zero();  // board point [m] (unused with a landmark)
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();   // detected pixel
+  int landmark = -1;  // with a landmark block: the corner's index in it (0-3)
 };
+
+// Values in a tag's landmark block: four corners x [x y z] in the world frame.
+constexpr int kTagLandmarkSize = 12;
 
 class TagReprojectionFactor final : public ceres::CostFunction {
  public:
@@ -115,6 +124,18 @@ class TagReprojectionFactor final : public ceres::CostFunction {
                                               std::vector<CornerObservation> corners,
                                               double pixel_sigma, const ImuAnchor& anchor);
 
+  // The camera pose (stage 1 below) of one frame, shared by the factors of its tags (landmark
+  // mode: one factor per tag), computed once per set of parameter values.
+  struct SharedCameraPose;
+  static std::shared_ptr<SharedCameraPose> makeSharedCameraPose();
+  // Shares `shared` with the other factors of the same frame (same anchor and blocks but the
+  // landmark). Only with a landmark block; call after useLandmarkBlock.
+  void shareCameraPose(std::shared_ptr<SharedCameraPose> shared);
+
+  // The corners are landmark states: appends the tag's landmark block (kTagLandmarkSize) as the
+  // last parameter; every corner must name its index in it. Call before adding the factor.
+  void useLandmarkBlock();
+
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -127,12 +148,24 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // Evaluate with Dim jet directions: 25 (kStageDim), or 34 with the anchor's deltas.
   template <int Dim>
   bool evaluate(double const* const* parameters, double* residuals, double** jacobians) const;
+  // The camera pose R_C_G, t_C_G at the frame and their derivatives in Dim jet directions.
+  template <int Dim>
+  struct CameraPose {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    Eigen::Matrix<double, 3, Dim> dR[3], dT;  // dR[j]: of R's column j
+  };
+  template <int Dim>
+  void cameraPose(double const* const* parameters, const Eigen::Matrix<double, 9, 1>& lin,
+                  CameraPose<Dim>* out) const;
   // Jet offset, tangent columns and ambient size of each parameter block but the intrinsics.
   struct BlockLayout {
     int jet_offset, columns, ambient;
   };
   std::vector<BlockLayout> layout_;
   ImuAnchor anchor_;
+  int landmark_block_ = -1;  // index of the landmark block, -1 without
+  std::shared_ptr<SharedCameraPose> shared_;
 
   Interpolation interpolation_;
   DistortionModel model_;

@@ -1,5 +1,8 @@
 #include "mvis/factors/tag_reprojection_factor.h"
 
+#include <algorithm>
+#include <mutex>
+
 #include "mvis/camera/camera_model.h"
 #include "mvis/common/lie.h"
 #include "mvis/estimator/state_blocks.h"
@@ -110,6 +113,30 @@ TagReprojectionFactor::TagReprojectionFactor(Interpolation interpolation, Distor
   sizes->push_back(8);
 }
 
+struct TagReprojectionFactor::SharedCameraPose {
+  std::mutex mutex;         // Ceres may evaluate residual blocks in parallel
+  std::vector<double> key;  // the parameter values it was computed at
+  int dim = 0;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  Eigen::MatrixXd dR[3], dT;
+};
+
+std::shared_ptr<TagReprojectionFactor::SharedCameraPose>
+TagReprojectionFactor::makeSharedCameraPose() {
+  return std::make_shared<SharedCameraPose>();
+}
+
+void TagReprojectionFactor::shareCameraPose(std::shared_ptr<SharedCameraPose> shared) {
+  if (landmark_block_ >= 0) shared_ = std::move(shared);
+}
+
+void TagReprojectionFactor::useLandmarkBlock() {
+  auto* sizes = mutable_parameter_block_sizes();
+  landmark_block_ = static_cast<int>(sizes->size());
+  sizes->push_back(kTagLandmarkSize);
+}
+
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
   if (interpolation_ == Interpolation::kImuPropagated && anchor_.with_intrinsics) {
@@ -119,8 +146,9 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
 }
 
 template <int Dim>
-bool TagReprojectionFactor::evaluate(double const* const* parameters, double* residuals,
-                                     double** jacobians) const {
+void TagReprojectionFactor::cameraPose(double const* const* parameters,
+                                       const Eigen::Matrix<double, 9, 1>& lin,
+                                       CameraPose<Dim>* out) const {
   using StageJet = ceres::Jet<double, Dim>;
   const auto perturbRotation = [](const Eigen::Quaterniond& q, int first) {
     return tangent_jet::perturbRotation<StageJet>(q, first);
@@ -128,17 +156,7 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   const auto perturbVector = [](const double* x, int first) {
     return tangent_jet::perturbVector<StageJet>(x, first);
   };
-  // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
-  // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
-  // With the IMU intrinsics: the anchor deltas' first-order change J_I (x_I - x_I0).
-  Eigen::Matrix<double, 9, 1> lin = Eigen::Matrix<double, 9, 1>::Zero();
-  if constexpr (Dim > kStageDim) {
-    lin =
-        anchor_.J_intrinsics *
-        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
-         anchor_.intrinsics0);
-  }
   const double* pose_k = parameters[0];
   const Mat3<StageJet> R_k = perturbRotation(poseRotation(pose_k), 0);
   const Vec3<StageJet> p_k = perturbVector(pose_k + 4, 3);
@@ -203,19 +221,64 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   const Mat3<StageJet> R_CG = R_CI * R.transpose();
   const Vec3<StageJet> t_CG = p_CI - R_CG * p;
 
-  // Stage 2: each corner. p_C = R_CG p_G + t_CG is linear in p_G, so its derivatives are
-  // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
-  Eigen::Matrix3d R_val;
-  Eigen::Vector3d t_val;
-  Eigen::Matrix<double, 3, Dim> dR[3], dT;
   for (int i = 0; i < 3; ++i) {
-    t_val[i] = t_CG[i].a;
-    dT.row(i) = t_CG[i].v.transpose();
+    out->t[i] = t_CG[i].a;
+    out->dT.row(i) = t_CG[i].v.transpose();
     for (int j = 0; j < 3; ++j) {
-      R_val(i, j) = R_CG(i, j).a;
-      dR[j].row(i) = R_CG(i, j).v.transpose();
+      out->R(i, j) = R_CG(i, j).a;
+      out->dR[j].row(i) = R_CG(i, j).v.transpose();
     }
   }
+}
+
+template <int Dim>
+bool TagReprojectionFactor::evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
+  // listed at kStageDim.
+  const int n_blocks = static_cast<int>(layout_.size());
+  // With the IMU intrinsics: the anchor deltas' first-order change J_I (x_I - x_I0).
+  Eigen::Matrix<double, 9, 1> lin = Eigen::Matrix<double, 9, 1>::Zero();
+  if constexpr (Dim > kStageDim) {
+    lin =
+        anchor_.J_intrinsics *
+        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
+         anchor_.intrinsics0);
+  }
+  CameraPose<Dim> pose;
+  if (shared_ == nullptr) {
+    cameraPose<Dim>(parameters, lin, &pose);
+  } else {
+    // The frame's other tags share the pose: computed once per set of parameter values.
+    std::vector<double> key;
+    const int shared_blocks = landmark_block_;
+    for (int b = 0; b < shared_blocks; ++b) {
+      const double* x = parameters[b];
+      key.insert(key.end(), x, x + parameter_block_sizes()[b]);
+    }
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    if (shared_->key != key || shared_->dim != Dim) {
+      cameraPose<Dim>(parameters, lin, &pose);
+      shared_->key = std::move(key);
+      shared_->dim = Dim;
+      shared_->R = pose.R;
+      shared_->t = pose.t;
+      for (int j = 0; j < 3; ++j) shared_->dR[j] = pose.dR[j];
+      shared_->dT = pose.dT;
+    } else {
+      pose.R = shared_->R;
+      pose.t = shared_->t;
+      for (int j = 0; j < 3; ++j) pose.dR[j] = shared_->dR[j];
+      pose.dT = shared_->dT;
+    }
+  }
+
+  // Stage 2: each corner. p_C = R_CG p_G + t_CG is linear in p_G, so its derivatives are
+  // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
+  const Eigen::Matrix3d& R_val = pose.R;
+  const Eigen::Vector3d& t_val = pose.t;
+  const Eigen::Matrix<double, 3, Dim>(&dR)[3] = pose.dR;
+  const Eigen::Matrix<double, 3, Dim>& dT = pose.dT;
   const double* intrinsics = parameters[n_blocks];
   const double inv_sigma = 1.0 / sigma_;
   // d(anchor rotation perturbation) / d(IMU intrinsics): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d).
@@ -226,8 +289,16 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J_pc;
   Eigen::Matrix<double, 2, 8> J_k;
+  const double* landmark = landmark_block_ >= 0 ? parameters[landmark_block_] : nullptr;
+  double* J_landmark =
+      landmark != nullptr && jacobians != nullptr ? jacobians[landmark_block_] : nullptr;
+  if (J_landmark != nullptr) {
+    std::fill(J_landmark, J_landmark + num_residuals() * kTagLandmarkSize, 0.0);
+  }
   for (std::size_t c = 0; c < corners_.size(); ++c) {
-    const Eigen::Vector3d& p_G = corners_[c].p_G;
+    const Eigen::Vector3d p_G = landmark != nullptr
+                                    ? Eigen::Vector3d(landmark + 3 * corners_[c].landmark)
+                                    : corners_[c].p_G;
     const Eigen::Vector3d pc = R_val * p_G + t_val;
     if (!(pc[2] > 1e-6)) return false;  // behind the camera: Ceres rejects the step
     projectWithJacobians(model_, intrinsics, pc, &uv, &J_pc, &J_k);
@@ -238,6 +309,13 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
     const Eigen::Matrix<double, 3, Dim> D =
         dR[0] * p_G.x() + dR[1] * p_G.y() + dR[2] * p_G.z() + dT;
     const Eigen::Matrix<double, 2, Dim> J = (J_pc * inv_sigma) * D;
+    if (J_landmark != nullptr) {
+      const Eigen::Matrix<double, 2, 3> J_p = (J_pc * inv_sigma) * R_val;
+      for (int i = 0; i < 2; ++i) {
+        double* out = J_landmark + kTagLandmarkSize * (row + i) + 3 * corners_[c].landmark;
+        for (int j = 0; j < 3; ++j) out[j] = J_p(i, j);
+      }
+    }
     for (int i = 0; i < 2; ++i) {
       const int r = row + i;
       for (int b = 0; b < n_blocks; ++b) {
