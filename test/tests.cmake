@@ -80,3 +80,4 @@ add_test(NAME python_evaluation
   COMMAND /usr/bin/python3 -m unittest discover -s ${PROJECT_SOURCE_DIR}/test/python -v)
 mvis_core_test(test_imu_correction test/unit/test_imu_correction.cpp)
 mvis_core_test(test_imu_reintegration test/unit/test_imu_reintegration.cpp)
+mvis_core_test(test_estimator_landmarks test/unit/test_estimator_landmarks.cpp)

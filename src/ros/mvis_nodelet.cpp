@@ -100,7 +100,7 @@ void MvisNodelet::onInit() {
   }
   frontend_ = std::move(frontend).value();
 
-  if (rig_.target) {
+  {
     EstimatorOptions eo;
     eo.window_size = options_.window_size;
     eo.pixel_sigma_px = options_.pixel_sigma;
@@ -128,11 +128,11 @@ void MvisNodelet::onInit() {
     estimator_ = std::move(estimator).value();
     estimator_->setUpdateCallback([this](const EstimatorUpdate& u) { onUpdate(u); });
     estimator_->setPropagationCallback([this](const EstimatorState& s) { onPropagated(s); });
-  } else {
-    NODELET_WARN_STREAM("mvis: " << options_.config_dir
-                                 << " has no aprilgrid.yaml: the estimator needs a known board "
-                                    "(tag corners as landmarks are not supported yet); only the "
-                                    "front end runs");
+  }
+  if (!rig_.target) {
+    NODELET_INFO_STREAM("mvis: " << options_.config_dir
+                                 << " has no aprilgrid.yaml: tag corners are estimated as "
+                                    "landmarks");
   }
   tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   tags_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("tags", 1, true);
@@ -414,6 +414,8 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
         stampedTransform(s.T_i_b.inverse(), stamp, base, options_.frame_prefix + s.name));
   }
   tf_broadcaster_->sendTransform(transforms);
+  // Without a board the tags are estimates: republished after every solve.
+  if (!rig_.target && u.solve.iterations > 0) publishTags();
 
   geometry_msgs::PoseStamped pose;
   pose.header.stamp = stamp;
@@ -476,7 +478,15 @@ void MvisNodelet::onPropagated(const EstimatorState& state) {
 }
 
 void MvisNodelet::publishTags() {
-  if (!rig_.target) return;
+  std::map<int, std::array<Eigen::Vector3d, 4>> tags;
+  if (rig_.target) {
+    for (int id = 0; id < rig_.target->numTags(); ++id) {
+      for (int k = 0; k < 4; ++k) tags[id][k] = rig_.target->corner(id, k);
+    }
+  } else if (estimator_) {
+    tags = estimator_->landmarks();
+  }
+  if (tags.empty()) return;
   visualization_msgs::MarkerArray array;
   visualization_msgs::Marker squares;
   squares.header.frame_id = options_.frame_prefix + "board";
@@ -496,9 +506,7 @@ void MvisNodelet::publishTags() {
     q.z = p.z();
     return q;
   };
-  for (int id = 0; id < rig_.target->numTags(); ++id) {
-    Eigen::Vector3d c[4];
-    for (int k = 0; k < 4; ++k) c[k] = rig_.target->corner(id, k);
+  for (const auto& [id, c] : tags) {
     for (int k : {0, 1, 2, 0, 2, 3}) squares.points.push_back(point(c[k]));
     visualization_msgs::Marker label;
     label.header = squares.header;
@@ -509,7 +517,7 @@ void MvisNodelet::publishTags() {
     label.pose.position = point(0.25 * (c[0] + c[1] + c[2] + c[3]));
     label.pose.position.z += 0.01;
     label.pose.orientation.w = 1.0;
-    label.scale.z = 0.5 * rig_.target->tag_size;
+    label.scale.z = 0.5 * (c[1] - c[0]).norm();
     label.color.r = 1.0f;
     label.color.g = 0.6f;
     label.color.a = 1.0f;

@@ -27,7 +27,8 @@ namespace {
 int usage(const char* message) {
   std::fprintf(stderr,
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
-               "                    [--interpolation imu|report] [--pixel-sigma PX] [--window N]\n"
+               "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
+               "                    [--window N]\n"
                "                    [--max-iterations N] [--solve-every N]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
@@ -41,6 +42,8 @@ int usage(const char* message) {
                "  --interpolation  frame poses from the IMU (default) or the report's\n"
                "                   kinematic/pose-based interpolation\n"
                "  --pixel-sigma PX corner noise (default 1)\n"
+               "  --huber S        robust loss threshold per camera factor (a frame's corners;\n"
+               "                   a tag's without a board) [sigma] (default 3, 0: none)\n"
                "  --window N       states in the sliding window (default 4)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
                "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
@@ -78,6 +81,7 @@ int main(int argc, char** argv) {
   bool fixed_imu_linearization = false;
   std::vector<std::string> hold;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
+  double huber = mvis::EstimatorOptions{}.huber_sigma;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
@@ -101,6 +105,10 @@ int main(int argc, char** argv) {
       if (!value(&v) || !(std::atof(v.c_str()) > 0.0))
         return usage("--pixel-sigma takes pixels > 0");
       pixel_sigma = std::atof(v.c_str());
+    } else if (arg == "--huber") {
+      std::string v;
+      if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) return usage("--huber takes sigmas >= 0");
+      huber = std::atof(v.c_str());
     } else if (arg == "--window") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 3) return usage("--window takes a state count >= 3");
@@ -165,6 +173,7 @@ int main(int argc, char** argv) {
 
   mvis::OfflineOptions options;
   options.estimator.pixel_sigma_px = pixel_sigma;
+  options.estimator.huber_sigma = huber;
   options.estimator.window_size = window;
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;

@@ -158,11 +158,10 @@ inline CameraErrors inertialErrors(const InertialSensor& truth, const InertialSe
   return e;
 }
 
-// The checks every auxiliary sensor passes after a run: the absolute bounds and every error
-// inside 3 sigma.
-inline void expectInertialCalibrated(const CameraErrors& e, const std::string& name,
-                                     double rotation_deg, double translation_mm,
-                                     double time_offset_ms) {
+// The checks a camera or auxiliary sensor passes after a run: the absolute bounds and every
+// error inside 3 sigma.
+inline void expectCalibrated(const CameraErrors& e, const std::string& name, double rotation_deg,
+                             double translation_mm, double time_offset_ms) {
   EXPECT_LT(e.rotation_deg, rotation_deg) << name;
   EXPECT_LT(e.translation_mm, translation_mm) << name;
   EXPECT_LT(e.time_offset_ms, time_offset_ms) << name;

@@ -70,7 +70,7 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
         after.rotation_sigma_ratio[0], after.rotation_sigma_ratio[1], after.rotation_sigma_ratio[2],
         after.translation_sigma_ratio[0], after.translation_sigma_ratio[1],
         after.translation_sigma_ratio[2], after.time_offset_sigma_ratio);
-    expectInertialCalibrated(after, truth.name, 0.05, 2.0, 0.1);
+    expectCalibrated(after, truth.name, 0.05, 2.0, 0.1);
   }
   // Trajectory: the online estimate of every state as it left the window. The first seconds
   // carry the initial calibration error (cm) until the estimate converges.

@@ -300,7 +300,7 @@ TEST(Estimator, AuxiliarySensorThatStopsLeavesAndRejoins) {
   const CameraErrors e = inertialErrors(run.truth.inertial[1], estimate.inertial[1]);
   std::printf("imu1 after a 1 s silence: %.4f deg, %.3f mm, %.4f ms\n", e.rotation_deg,
               e.translation_mm, e.time_offset_ms);
-  expectInertialCalibrated(e, "imu1", 0.1, 5.0, 0.5);
+  expectCalibrated(e, "imu1", 0.1, 5.0, 0.5);
 }
 
 }  // namespace

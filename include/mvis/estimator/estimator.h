@@ -32,7 +32,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,12 +61,17 @@ struct EstimatorOptions {
   // Solve after every n-th cam0 frame (states are still added, predicted by the IMU, and
   // marginalized at every frame): a budget for slow machines.
   int solve_every = 3;
-  int max_iterations = 10;            // per solve
-  double max_solve_time_s = 0.05;     // per solve [s]
-  double init_solve_time_s = 1.0;     // for the initial batch [s]
-  int threads = 1;                    // Ceres threads
-  double pixel_sigma_px = 1.0;        // corner noise [px]
-  double huber_sigma = 3.0;           // robust loss threshold [sigma units], 0: plain squares
+  int max_iterations = 10;         // per solve
+  double max_solve_time_s = 0.05;  // per solve [s]
+  double init_solve_time_s = 1.0;  // for the initial batch [s]
+  int threads = 1;                 // Ceres threads
+  double pixel_sigma_px = 1.0;     // corner noise [px]
+  // Robust loss threshold [sigma units], 0: plain squares: Huber on a camera factor's whitened
+  // squared norm (a frame's corners together; one tag's without a board). At the default a
+  // frame of N > 4 corners counts like about 3 sqrt(N/2) of them, which stands in for the error
+  // its corners share (IMU-propagated frame poses carry no IMU noise); doc/results.md compares
+  // counting every corner (0).
+  double huber_sigma = 3.0;
   bool estimate_extrinsics = true;    // camera-IMU T_C_I of every camera
   bool estimate_time_offsets = true;  // timeshift_cam_imu of every camera
   // Camera intrinsics [fu fv pu pv] and distortion coefficients of every camera, with priors
@@ -242,6 +249,9 @@ class Estimator {
   Status computeCovariance();
   // Every state that has left the window, then the window's.
   std::vector<EstimatorState> trajectory() const;
+  // Without a board (no aprilgrid.yaml): the current estimate of every tag corner in the window,
+  // by tag id, in the world frame (corner order of tag_observation.h). Empty with a board.
+  std::map<int, std::array<Eigen::Vector3d, 4>> landmarks() const;
   // What the estimator is doing, for diagnostics and logs ("initializing: 4 of 10 frames").
   std::string status() const;
   bool initialized() const;

@@ -26,6 +26,14 @@ std::vector<CornerObservation> boardCorners(const TagFrame& frame, const AprilGr
 bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& frame, int min_tags,
                SE3* T_G_C);
 
+// Without a board: the camera's pose T_T_C on one tag (id `tag_id`) of the frame, in the tag's
+// frame (corner 0 at the origin, x along its bottom edge, z out of its face) with the tag's side
+// taken as `size` [m]. False when the tag is not in the frame or PnP fails.
+bool tagPose(const Camera& camera, const TagFrame& frame, int tag_id, double size, SE3* T_T_C);
+
+// The corners of a tag of side `size` in its own frame (corner order of tag_observation.h).
+Eigen::Vector3d tagCorner(int k, double size);
+
 // The correction [s] to a camera's time offset that best matches its angular velocity, from
 // board rotations R_G_C at camera-clock stamps, with the gyroscope, searched within +-range_s at
 // 1 ms and refined by a parabola. The camera's rate is the mean over ~0.15 s between board
@@ -45,11 +53,16 @@ double clockCorrection(const std::deque<std::pair<TimeNs, Eigen::Matrix3d>>& rot
 //   v_i = v_0 + g tau_i + c_i,                      c_i+1 = c_i + R_i dv_i
 //   p_i = p_0 + v_0 tau_i + 1/2 g tau_i^2 + d_i,    d_i+1 = d_i + c_i T_i + R_i dp_i
 // linear in (v_0, g): least squares over every position.
+// Without a board the poses come from one tag of unknown size: with `scaled`, the positions are
+// p_i = s a_i + T_G_I[i].p with a_i = scaled[i] (the camera's position in tag sides) and the
+// tag's side s [m] a third unknown, also linear.
 struct GravityAlignment {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // in the board frame [m/s^2]
   std::vector<Eigen::Vector3d> velocities;            // v_i [m/s]
+  double scale = 1.0;                                 // s (1 without `scaled`)
 };
 GravityAlignment alignGravity(const std::vector<TimeNs>& t, const std::vector<SE3>& T_G_I,
-                              const std::vector<const ImuPreintegration*>& pre);
+                              const std::vector<const ImuPreintegration*>& pre,
+                              const std::vector<Eigen::Vector3d>* scaled = nullptr);
 
 }  // namespace mvis

@@ -94,6 +94,8 @@ void Estimator::Impl::newProblem() {
   po.enable_fast_removal = true;
   problem = std::make_unique<ceres::Problem>(po);
   prior.clear();
+  landmarks.clear();
+  landmark_ids.clear();
 }
 
 Status Estimator::Impl::withWarning(Status s) {
@@ -304,6 +306,7 @@ void Estimator::Impl::resetAll() {
   for (auto& q : other_frames) q.clear();
   init.clear();
   for (auto& h : board_rotations) h.clear();
+  std::fill(pose_tag.begin(), pose_tag.end(), -1);
   for (auto& a : aux) {
     a->readings.clear();
     a->last = std::numeric_limits<TimeNs>::min();
@@ -363,10 +366,6 @@ StatusOr<std::unique_ptr<Estimator>> Estimator::create(const Rig& rig,
   if (!valid.ok()) return valid;
   if (rig.inertial.empty()) return Status::Error("the rig has no base IMU");
   if (rig.cameras.empty()) return Status::Error("the rig has no camera");
-  if (!rig.target) {
-    return Status::Error(
-        "the rig has no aprilgrid.yaml: tag corners as landmark states are not supported yet");
-  }
   Status holds_valid = validateHolds(rig, options.hold);
   if (!holds_valid.ok()) return holds_valid;
   for (const auto& sensor : rig.inertial) {
@@ -403,6 +402,13 @@ std::vector<EstimatorState> Estimator::trajectory() const {
 }
 std::string Estimator::status() const { return impl_->status_text; }
 bool Estimator::initialized() const { return impl_->initialized; }
+std::map<int, std::array<Eigen::Vector3d, 4>> Estimator::landmarks() const {
+  std::map<int, std::array<Eigen::Vector3d, 4>> out;
+  for (const auto& [id, landmark] : impl_->landmarks) {
+    for (int k = 0; k < 4; ++k) out[id][k] = Eigen::Vector3d(landmark->x + 3 * k);
+  }
+  return out;
+}
 const EstimatorCounters& Estimator::counters() const { return impl_->counters; }
 void Estimator::reset() {
   impl_->resetAll();

@@ -160,8 +160,16 @@ struct ReadingMoments {
 
 struct InitFrame {
   TimeNs t = 0;  // base clock
-  SE3 T_G_I;
+  SE3 T_G_I;     // unused without a board (initialize() makes it)
   TagFrame frame;
+  // Without a board: the pose tag's centre in cam0's frame [tag sides].
+  Eigen::Vector3d scaled = Eigen::Vector3d::Zero();
+};
+
+// Without a board (report Eq. 11): a tag's corners as landmark states, [p_G,0 .. p_G,3] in the
+// world frame (TagReprojectionFactor::useLandmarkBlock).
+struct TagLandmark {
+  double x[kTagLandmarkSize];
 };
 
 // The reading at t in a buffer of increasing stamps, interpolated between its neighbours (the
@@ -190,6 +198,7 @@ using estimator_internal::readingsBetween;
 using estimator_internal::ResidualRecord;
 using estimator_internal::seconds;
 using estimator_internal::State;
+using estimator_internal::TagLandmark;
 
 struct Estimator::Impl {
   Rig rig;
@@ -200,6 +209,15 @@ struct Estimator::Impl {
   PoseManifold pose_manifold;
   RotationManifold rotation_manifold;
   ceres::SphereManifold<3> sphere_manifold;
+  // Without a board: the tags' corners as states (estimator_landmarks.cpp), by tag id and by
+  // block; per camera the tag its poses are taken on before initialization (-1: none yet).
+  std::map<int, std::unique_ptr<TagLandmark>> landmarks;
+  std::map<const double*, int> landmark_ids;
+  std::vector<int> pose_tag;
+  double initial_tag_side = 1.0;  // [m] from the initial alignment
+  // The first state's pose defines the world frame without a board: a prior this tight [rad, m].
+  static constexpr double kGaugeStd = 1e-6;
+  // The camera factors' robust loss (options.huber_sigma), null for plain squares.
   std::unique_ptr<ceres::LossFunction> huber;
   std::unique_ptr<ceres::Problem> problem;
   std::deque<std::unique_ptr<State>> states;
@@ -276,7 +294,6 @@ struct Estimator::Impl {
       }
       cameras.push_back(std::move(blocks));
     }
-    if (options.huber_sigma > 0.0) huber = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
     for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
       const InertialSensor& sensor = rig.inertial[i];
       auto a = std::make_unique<AuxSensor>();
@@ -290,6 +307,8 @@ struct Estimator::Impl {
     }
     other_frames.resize(rig.cameras.size());
     board_rotations.resize(rig.cameras.size());
+    pose_tag.assign(rig.cameras.size(), -1);
+    if (options.huber_sigma > 0.0) huber = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
     last_frame.assign(rig.cameras.size(), std::numeric_limits<TimeNs>::min());
     newProblem();
   }
@@ -332,9 +351,30 @@ struct Estimator::Impl {
 
   void addCalibrationBlocks();
 
-  ceres::CostFunction* frameFactor(const TagFrame& frame, std::size_t k, State** owner,
-                                   std::vector<double*>* blocks, int* corners);
+  // A frame's camera factors, owned by window state k (or its successor): one over its board
+  // corners, or without a board one per tag with the tag's landmark block.
+  struct FramePiece {
+    ceres::CostFunction* cost;
+    std::vector<double*> blocks;
+  };
+  std::vector<FramePiece> frameFactors(const TagFrame& frame, std::size_t k, State** owner,
+                                       int* corners);
 
+  // ---- landmarks, without a board (estimator_landmarks.cpp) -------------------------------
+  bool landmarkMode() const { return !rig.target; }
+  // The tag's landmark block, made from the frame (camera c, attached to state k) if it has
+  // none yet: PnP on the tag at the current tag side, placed with the state's pose propagated
+  // to the frame. Null if that fails.
+  double* landmarkFor(const TagFrame& frame, const TagObservation& tag, std::size_t k);
+  // The mean side of the landmarks' tags [m] (the guess for a new tag's size).
+  double meanTagSide() const;
+  // The camera's pose on the frame's pose tag (landmark mode, unit side), choosing a new pose
+  // tag (the largest in the frame) when it is not seen; a new one restarts that camera's
+  // rotation history (and for cam0 the initialization).
+  bool poseOnTag(const TagFrame& frame, SE3* T_T_C);
+  // Landmarks only the leaving state's records observe: marginalized with it.
+  std::vector<double*> leavingLandmarks(const State& oldest) const;
+  void removeLandmark(double* block);
   // Angular acceleration at t: slope of a line fitted to the gyroscope readings within 10 ms.
   Eigen::Vector3d angularAcceleration(TimeNs t) const;
 
@@ -409,8 +449,10 @@ struct Estimator::Impl {
   void attachOtherFrames();
 
   // ---- initialization --------------------------------------------------------------------
-  // The camera's board pose with its current intrinsics.
-  bool boardPose(const TagFrame& frame, SE3* T_G_C) const;
+  // The camera's board pose with its current intrinsics (without a board: poseOnTag).
+  bool boardPose(const TagFrame& frame, SE3* T_G_C);
+  // Camera c with its current intrinsics.
+  Camera currentCamera(std::size_t c) const;
 
   void addInitFrame(TagFrame frame, TimeNs t);
 

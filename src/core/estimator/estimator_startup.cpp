@@ -2,28 +2,42 @@
 
 namespace mvis {
 
-bool Estimator::Impl::boardPose(const TagFrame& frame, SE3* T_G_C) const {
-  Camera current = rig.cameras[frame.camera];
-  const CameraBlocks& cb = *cameras[frame.camera];
+Camera Estimator::Impl::currentCamera(std::size_t c) const {
+  Camera current = rig.cameras[c];
+  const CameraBlocks& cb = *cameras[c];
   current.intrinsics = Eigen::Vector4d(cb.intrinsics);
   current.distortion_coeffs = Eigen::Vector4d(cb.intrinsics + 4);
-  return mvis::boardPose(current, *rig.target, frame, options.min_tags, T_G_C);
+  return current;
+}
+
+bool Estimator::Impl::boardPose(const TagFrame& frame, SE3* T_G_C) {
+  if (landmarkMode()) return poseOnTag(frame, T_G_C);
+  return mvis::boardPose(currentCamera(frame.camera), *rig.target, frame, options.min_tags, T_G_C);
 }
 
 void Estimator::Impl::addInitFrame(TagFrame frame, TimeNs t) {
   SE3 T_G_C;
   if (!boardPose(frame, &T_G_C)) {
     init.clear();
-    status_text = "initializing: " + rig.cameras[0].name + " sees too little of the board";
+    status_text = "initializing: " + rig.cameras[0].name +
+                  (landmarkMode() ? " sees no tag" : " sees too little of the board");
     return;
   }
   recordBoardRotation(0, frame.stamp_ns, T_G_C);
   // Consecutive frames only: a gap of more than 0.25 s starts over.
   if (!init.empty() && t - init.back().t > fromSeconds(0.25)) init.clear();
-  init.push_back({t, T_G_C * poseToSE3(cameras[0]->extrinsic), std::move(frame)});
+  if (landmarkMode()) {
+    // One tag's rotation is ambiguous (a mirrored pose fits about as well) but not its centre:
+    // keep the centre in the camera frame, in tag sides; initialize() takes the rotations from
+    // the gyroscope.
+    init.push_back({t, SE3(), std::move(frame), T_G_C.inverse() * tagCorner(2, 0.5)});
+  } else {
+    init.push_back({t, T_G_C * poseToSE3(cameras[0]->extrinsic), std::move(frame)});
+  }
   std::ostringstream s;
   s << "initializing: " << init.size() << " of " << options.init_frames << " "
-    << rig.cameras[0].name << " frames with a board pose";
+    << rig.cameras[0].name << " frames with a "
+    << (landmarkMode() ? "pose on tag " + std::to_string(pose_tag[0]) : "board pose");
   status_text = s.str();
   if (static_cast<int>(init.size()) < options.init_frames) return;
   if (!clocks_aligned) {
@@ -87,22 +101,63 @@ void Estimator::Impl::initialize() {
   std::vector<SE3> poses;
   for (std::size_t i = 0; i < n; ++i) {
     times.push_back(init[i].t);
-    poses.push_back(init[i].T_G_I);
     if (i + 1 < n) {
       pre.push_back(
           preintegrate(init[i].t, init[i + 1].t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
       pre_ptrs.push_back(pre.back().get());
     }
   }
-  const GravityAlignment aligned = alignGravity(times, poses, pre_ptrs);
+  // Without a board: base rotations from the gyroscope (R_G_I,0 = I), the IMU at
+  //   p_G_I,i = -s R_G_C,i c_i - R_G_I,i t_I_C
+  // with c_i the pose tag's centre in cam0's frame in sides and s the side; the world's origin at
+  // the tag's centre until the alignment below moves it.
+  std::vector<Eigen::Vector3d> scaled;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!landmarkMode()) {
+      poses.push_back(init[i].T_G_I);
+      continue;
+    }
+    const SE3 T_I_C = poseToSE3(cameras[0]->extrinsic).inverse();
+    const Eigen::Quaterniond q =
+        i == 0 ? Eigen::Quaterniond::Identity() : (poses.back().q * pre[i - 1]->deltaR());
+    poses.push_back(SE3(q.normalized(), -(q * T_I_C.p)));
+    scaled.push_back(-(q * (T_I_C.q * init[i].scaled)));
+  }
+  const GravityAlignment aligned =
+      alignGravity(times, poses, pre_ptrs, landmarkMode() ? &scaled : nullptr);
   Eigen::Vector3d g = aligned.gravity;
-  if (!g.allFinite() || std::abs(g.norm() - options.gravity_m_s2) > 0.3 * options.gravity_m_s2) {
+  const bool bad_gravity =
+      !g.allFinite() || std::abs(g.norm() - options.gravity_m_s2) > 0.3 * options.gravity_m_s2;
+  // Without a board the tag's side comes out of the same fit: printed tags are 1 cm to 5 m.
+  const bool bad_scale = !(aligned.scale > 0.01 && aligned.scale < 5.0);
+  if (bad_gravity || bad_scale) {
     std::ostringstream s;
-    s << "initializing: gravity from the first " << n << " frames came out as " << g.norm()
-      << " m/s^2 (camera extrinsic or time offset far off, or IMU units wrong?); retrying";
+    s << "initializing: ";
+    if (bad_gravity) {
+      s << "gravity from the first " << n << " frames came out as " << g.norm()
+        << " m/s^2 (camera extrinsic or time offset far off, or IMU units wrong?)";
+    } else {
+      s << "the side of tag " << pose_tag[0] << " came out as " << aligned.scale
+        << " m from the first " << n << " frames (too little acceleration to tell it)";
+    }
+    s << "; retrying";
     status_text = s.str();
     init.erase(init.begin(), init.begin() + n / 2);
     return;
+  }
+  std::vector<Eigen::Vector3d> velocities = aligned.velocities;
+  if (landmarkMode()) {
+    // The world frame: gravity along -z, origin and heading at the first state.
+    const Eigen::Quaterniond R_align =
+        Eigen::Quaterniond::FromTwoVectors(g, -Eigen::Vector3d::UnitZ());
+    const Eigen::Vector3d p0 = poses[0].p + aligned.scale * scaled[0];
+    for (std::size_t i = 0; i < n; ++i) {
+      init[i].T_G_I =
+          SE3(R_align * poses[i].q, R_align * (poses[i].p + aligned.scale * scaled[i] - p0));
+      velocities[i] = R_align * velocities[i];
+    }
+    g = R_align * g;
+    initial_tag_side = aligned.scale;
   }
   g *= options.gravity_m_s2 / g.norm();
   Eigen::Map<Eigen::Vector3d>{gravity} = g;
@@ -113,7 +168,7 @@ void Estimator::Impl::initialize() {
   for (std::size_t i = 0; i < n; ++i) {
     auto s = makeState(init[i].t);
     se3ToPose(init[i].T_G_I, s->pose);
-    Eigen::Map<Eigen::Vector3d>(s->speed_bias) = aligned.velocities[i];
+    Eigen::Map<Eigen::Vector3d>(s->speed_bias) = velocities[i];
     std::fill(s->speed_bias + 3, s->speed_bias + 9, 0.0);
     states.push_back(std::move(s));
     addStateBlocks(states.back().get());
@@ -130,6 +185,15 @@ void Estimator::Impl::initialize() {
       Eigen::Map<const Eigen::Matrix<double, 9, 1>>(states.front()->speed_bias);
   addRecord(states.front().get(), new ceres::NormalPrior(A_prior, b_prior), nullptr,
             {states.front()->speed_bias});
+  if (landmarkMode()) {
+    // Nothing else fixes the world frame (gravity is a free direction): the first state's pose
+    // is it.
+    addRecord(states.front().get(),
+              PosePriorFactor::fromStd(poseToSE3(states.front()->pose),
+                                       Eigen::Vector3d::Constant(kGaugeStd),
+                                       Eigen::Vector3d::Constant(kGaugeStd)),
+              nullptr, {states.front()->pose});
+  }
   // The states' biases start at zero, the preintegrations' linearization point above.
   for (std::size_t i = 0; i + 1 < n; ++i) {
     addImuFactor(i, pre[i]);

@@ -67,22 +67,39 @@ void Estimator::Impl::addCalibrationBlocks() {
   addImuIntrinsicsBlocks();
 }
 
-ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::size_t k,
-                                                  State** owner, std::vector<double*>* blocks,
-                                                  int* corners) {
+std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const TagFrame& frame,
+                                                                       std::size_t k, State** owner,
+                                                                       int* corners) {
   const std::size_t c = frame.camera;
   CameraBlocks& cb = *cameras[c];
-  auto obs = boardCorners(frame, *rig.target);
-  *corners = static_cast<int>(obs.size());
-  if (obs.empty()) return nullptr;
-  const DistortionModel model = rig.cameras[c].distortion_model;
-  State* sk = states[k].get();
-  *owner = sk;
   // The frame's pose comes from the readings around it: inside a gap they are made up.
   if (insideImuGap(frame.stamp_ns + timeOffsetNs(c))) {
     ++counters.frames_in_imu_gap;
-    return nullptr;
+    return {};
   }
+  // The corners in groups of one factor each, with their landmark block (null: board points).
+  std::vector<std::pair<std::vector<CornerObservation>, double*>> groups;
+  *corners = 0;
+  if (landmarkMode()) {
+    for (const auto& tag : frame.tags) {
+      double* landmark = landmarkFor(frame, tag, k);
+      if (landmark == nullptr) continue;
+      std::vector<CornerObservation> obs;
+      for (int i = 0; i < 4; ++i) obs.push_back({Eigen::Vector3d::Zero(), tag.corners_px[i], i});
+      groups.emplace_back(std::move(obs), landmark);
+      *corners += 4;
+    }
+  } else {
+    auto obs = boardCorners(frame, *rig.target);
+    *corners = static_cast<int>(obs.size());
+    if (!obs.empty()) groups.emplace_back(std::move(obs), nullptr);
+  }
+  if (groups.empty()) return {};
+  const DistortionModel model = rig.cameras[c].distortion_model;
+  State* sk = states[k].get();
+  *owner = sk;
+  std::vector<double*> blocks;
+  std::function<TagReprojectionFactor*(std::vector<CornerObservation>)> make;
   if (options.interpolation == FrameInterpolation::kImu) {
     const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
     // The readings at t_a for the last few milliseconds (the time offset's change): corrected by
@@ -92,7 +109,7 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
     const Eigen::Vector3d alpha = angularAcceleration(t_a);
     const double dt_nominal = toSeconds(frame.stamp_ns - t_a);
     TagReprojectionFactor::ImuAnchor anchor;
-    *blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
     double* imu_in = imuIntrinsics(0);
     if (imu_in != nullptr && t_a - sk->t > kIntrinsicsAnchorSpanNs) {
       // Raw readings re-integrated at the state's biases and the current intrinsics, with the
@@ -101,7 +118,7 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
           imuBetween(sk->t, t_a), deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
           imu_intrinsics[0]->frame, true);
       anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
-      blocks->push_back(imu_in);
+      blocks.push_back(imu_in);
     } else {
       // Without intrinsics, or over so short a span (cam0's frames, at their state's time) that
       // they cannot matter: readings corrected by the current estimate, no intrinsics block
@@ -112,20 +129,39 @@ ceres::CostFunction* Estimator::Impl::frameFactor(const TagFrame& frame, std::si
       auto pre = preintegrate(sk->t, t_a, bg, ba, true);
       anchor = TagReprojectionFactor::makeAnchor(*pre, dt_nominal, at.gyro, at.accel, alpha);
     }
-    return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
-                                                anchor);
-  }
-  if (c == 0) {
+    make = [&, anchor](std::vector<CornerObservation> obs) {
+      return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
+                                                  anchor);
+    };
+  } else if (c == 0) {
     const double dt_nominal = toSeconds(frame.stamp_ns - sk->t);
-    *blocks = {sk->pose, sk->speed_bias, cb.extrinsic, cb.time_offset, cb.intrinsics};
-    return TagReprojectionFactor::kinematic(model, std::move(obs), options.pixel_sigma_px,
-                                            dt_nominal, sk->motion.gyro);
+    blocks = {sk->pose, sk->speed_bias, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    make = [&, dt_nominal](std::vector<CornerObservation> obs) {
+      return TagReprojectionFactor::kinematic(model, std::move(obs), options.pixel_sigma_px,
+                                              dt_nominal, sk->motion.gyro);
+    };
+  } else {
+    State* sk1 = states[k + 1].get();
+    blocks = {sk->pose, sk1->pose, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    make = [&, sk1](std::vector<CornerObservation> obs) {
+      return TagReprojectionFactor::poseBased(model, std::move(obs), options.pixel_sigma_px,
+                                              toSeconds(frame.stamp_ns - sk->t),
+                                              toSeconds(sk1->t - sk->t));
+    };
   }
-  State* sk1 = states[k + 1].get();
-  *blocks = {sk->pose, sk1->pose, cb.extrinsic, cb.time_offset, cb.intrinsics};
-  return TagReprojectionFactor::poseBased(model, std::move(obs), options.pixel_sigma_px,
-                                          toSeconds(frame.stamp_ns - sk->t),
-                                          toSeconds(sk1->t - sk->t));
+  std::vector<FramePiece> out;
+  const auto shared = TagReprojectionFactor::makeSharedCameraPose();
+  for (auto& [obs, landmark] : groups) {
+    TagReprojectionFactor* factor = make(std::move(obs));
+    FramePiece piece{factor, blocks};
+    if (landmark != nullptr) {
+      factor->useLandmarkBlock();
+      factor->shareCameraPose(shared);
+      piece.blocks.push_back(landmark);
+    }
+    out.push_back(std::move(piece));
+  }
+  return out;
 }
 
 Eigen::Vector3d Estimator::Impl::angularAcceleration(TimeNs t) const {
@@ -150,11 +186,12 @@ Eigen::Vector3d Estimator::Impl::angularAcceleration(TimeNs t) const {
 
 void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
   State* owner = nullptr;
-  std::vector<double*> blocks;
   int corners = 0;
-  ceres::CostFunction* cost = frameFactor(frame, k, &owner, &blocks, &corners);
-  if (cost == nullptr) return;
-  addRecord(owner, cost, huber.get(), std::move(blocks));
+  auto pieces = frameFactors(frame, k, &owner, &corners);
+  if (pieces.empty()) return;
+  for (auto& piece : pieces) {
+    addRecord(owner, piece.cost, huber.get(), std::move(piece.blocks));
+  }
   owner->frames += 1;
   owner->corners += corners;
 }
@@ -298,6 +335,8 @@ void Estimator::Impl::marginalizeOldest() {
   }
   for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
   std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
+  const std::vector<double*> leaving_landmarks = leavingLandmarks(*oldest);
+  leaving.insert(leaving.end(), leaving_landmarks.begin(), leaving_landmarks.end());
   for (std::size_t i = 0; i < aux.size(); ++i) {
     AuxState* as = oldest->aux[i].get();
     if (as == nullptr) continue;
@@ -315,6 +354,7 @@ void Estimator::Impl::marginalizeOldest() {
   // differ from run to run in the last digits, and the window amplifies that.
   for (const auto& r : oldest->residuals) problem->RemoveResidualBlock(r.id);
   for (double* block : leaving) problem->RemoveParameterBlock(block);
+  for (double* block : leaving_landmarks) removeLandmark(block);
   past.push_back(oldest->toEstimate());
   states.pop_front();
   if (!made.ok()) {

@@ -18,17 +18,20 @@ std::vector<CornerObservation> boardCorners(const TagFrame& frame, const AprilGr
   return out;
 }
 
-bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& frame, int min_tags,
-               SE3* T_G_C) {
+namespace {
+
+// PnP (OpenCV's IPPE for planar targets) on the undistorted corners.
+bool planarPose(const Camera& camera, const std::vector<CornerObservation>& corners,
+                std::size_t min_corners, SE3* T_G_C) {
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;
-  for (const auto& o : boardCorners(frame, grid)) {
+  for (const auto& o : corners) {
     Eigen::Vector2d m;
     if (!unprojectPixel(camera, o.uv, &m)) continue;
     object.emplace_back(o.p_G.x(), o.p_G.y(), o.p_G.z());
     image.emplace_back(m.x(), m.y());
   }
-  if (object.size() < 4 * static_cast<std::size_t>(std::max(1, min_tags))) return false;
+  if (object.size() < std::max<std::size_t>(4, min_corners)) return false;
   cv::Mat rvec, tvec;
   const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
   if (!cv::solvePnP(object, image, K, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE)) {
@@ -38,6 +41,28 @@ bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& fram
   const Eigen::Vector3d tr(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
   *T_G_C = SE3(lie::expSO3(w), tr).inverse();
   return T_G_C->p.allFinite();
+}
+
+}  // namespace
+
+bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& frame, int min_tags,
+               SE3* T_G_C) {
+  return planarPose(camera, boardCorners(frame, grid),
+                    4 * static_cast<std::size_t>(std::max(1, min_tags)), T_G_C);
+}
+
+Eigen::Vector3d tagCorner(int k, double size) {
+  return Eigen::Vector3d(k == 1 || k == 2 ? size : 0.0, k >= 2 ? size : 0.0, 0.0);
+}
+
+bool tagPose(const Camera& camera, const TagFrame& frame, int tag_id, double size, SE3* T_T_C) {
+  for (const auto& tag : frame.tags) {
+    if (tag.tag_id != tag_id) continue;
+    std::vector<CornerObservation> corners;
+    for (int k = 0; k < 4; ++k) corners.push_back({tagCorner(k, size), tag.corners_px[k]});
+    return planarPose(camera, corners, 4, T_T_C);
+  }
+  return false;
 }
 
 double clockCorrection(const std::deque<std::pair<TimeNs, Eigen::Matrix3d>>& h,
@@ -106,14 +131,16 @@ double clockCorrection(const std::deque<std::pair<TimeNs, Eigen::Matrix3d>>& h,
 }
 
 GravityAlignment alignGravity(const std::vector<TimeNs>& t, const std::vector<SE3>& T_G_I,
-                              const std::vector<const ImuPreintegration*>& pre) {
+                              const std::vector<const ImuPreintegration*>& pre,
+                              const std::vector<Eigen::Vector3d>* scaled) {
   const std::size_t n = t.size();
   GravityAlignment out;
-  if (n < 3 || T_G_I.size() != n || pre.size() + 1 != n) {
+  if (n < 3 || T_G_I.size() != n || pre.size() + 1 != n || (scaled && scaled->size() != n)) {
     out.gravity.setConstant(std::numeric_limits<double>::quiet_NaN());
     return out;
   }
-  Eigen::MatrixXd A(3 * (n - 1), 6);
+  const int unknowns = scaled ? 7 : 6;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * (n - 1), unknowns);
   Eigen::VectorXd b(3 * (n - 1));
   std::vector<Eigen::Vector3d> c(n, Eigen::Vector3d::Zero()), d(n, Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i + 1 < n; ++i) {
@@ -127,9 +154,11 @@ GravityAlignment alignGravity(const std::vector<TimeNs>& t, const std::vector<SE
     A.block<3, 3>(3 * (i - 1), 0) = Eigen::Matrix3d::Identity() * tau;
     A.block<3, 3>(3 * (i - 1), 3) = Eigen::Matrix3d::Identity() * 0.5 * tau * tau;
     b.segment<3>(3 * (i - 1)) = T_G_I[i].p - T_G_I[0].p - d[i];
+    if (scaled) A.block<3, 1>(3 * (i - 1), 6) = (*scaled)[0] - (*scaled)[i];
   }
-  const Eigen::Matrix<double, 6, 1> x = A.colPivHouseholderQr().solve(b);
-  out.gravity = x.tail<3>();
+  const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
+  out.gravity = x.segment<3>(3);
+  if (scaled) out.scale = x[6];
   for (std::size_t i = 0; i < n; ++i) {
     out.velocities.push_back(x.head<3>() + out.gravity * toSeconds(t[i] - t[0]) + c[i]);
   }
