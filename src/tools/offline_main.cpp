@@ -241,10 +241,16 @@ int main(int argc, char** argv) {
       mvis::calibrationTable(initial.value(), r.calibration, truth ? &*truth : nullptr).c_str());
   if (truth) {
     auto true_trajectory = mvis::readTumTrajectory(truth_dir + "/trajectory.tum");
-    if (true_trajectory.ok()) {
+    if (true_trajectory.ok() && initial.value().target) {
       std::printf("\nATE (position RMSE, board frame, no alignment): %.2f mm over %zu states\n",
                   mvis::positionRmse(r.trajectory, true_trajectory.value()) * 1e3,
                   r.trajectory.size());
+    } else if (true_trajectory.ok()) {
+      std::printf(
+          "\nATE (position RMSE, SE(3)-aligned: without a board the estimate's frame is its "
+          "own): %.2f mm over %zu states\n",
+          mvis::positionRmse(r.trajectory, true_trajectory.value(), true) * 1e3,
+          r.trajectory.size());
     }
   }
   std::printf(

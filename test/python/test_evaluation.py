@@ -145,6 +145,43 @@ class Trajectory(unittest.TestCase):
         self.assertAlmostEqual(m["nees_position"], 4.0, places=6)  # (4 mm / 2 mm)^2
         self.assertLess(m["nees_orientation"], 1e-10)
 
+    def test_estimate_in_its_own_frame_is_aligned_first(self):
+        # Without a board the estimate lives in its own frame, defined by its first state: here
+        # the truth rotated 90 deg about y and shifted, with errors of +-3 mm along the truth's x
+        # alternating from state to state. Mapped through the first state (+3 mm), every other
+        # state is 6 mm off: ATE 6 mm sqrt(25/51); the NEES uses the covariance rotated into the
+        # board frame (3 mm along the estimate's z, which is the truth's x): (36/9 + 0) / 2 = 2,
+        # unrotated it would be 18.
+        R_a = ev.exp_so3([0.0, math.pi / 2, 0.0])  # estimate frame -> board frame
+        t_a = np.array([0.5, -0.2, 1.0])
+        sign = np.array([(-1.0) ** (i // 4) for i in range(len(self.t))])
+        p_err = self.p_true + np.outer(sign * 0.003, [1.0, 0.0, 0.0])
+        p_est = (p_err - t_a) @ R_a  # R_a^T (p - t_a), row-wise
+        R_est = np.array([R_a.T @ R for R in self.R_true])
+        with tempfile.TemporaryDirectory() as d:
+            os.makedirs(os.path.join(d, "truth"))
+            os.makedirs(os.path.join(d, "result"))
+            open(os.path.join(d, "truth", "aprilgrid.yaml"), "w").close()
+            write_tum(os.path.join(d, "truth", "trajectory.tum"), self.t, self.p_true, self.R_true)
+            write_tum(os.path.join(d, "result", "trajectory.tum"), self.t[::4], p_est[::4],
+                      R_est[::4])
+            with open(os.path.join(d, "result", "pose_covariance.csv"), "w") as f:
+                f.write("stamp,tx,ty,tz,qx,qy,qz,qw" + "".join(
+                    ",c%d%d" % (r, c) for r in range(6) for c in range(6)) + "\n")
+                C = np.diag([1e-6] * 3 + [1e-6, 4e-6, 9e-6])  # 1 / 2 / 3 mm along x / y / z
+                for i in (20, 40):
+                    f.write("%d.%09d,%s,%s,%s\n" % (
+                        self.t[i] // 10**9, self.t[i] % 10**9, ",".join(map(repr, p_est[i])),
+                        ",".join(map(repr, rot_to_quat(R_est[i]))),
+                        ",".join(map(repr, C.flatten()))))
+            self.assertTrue(ev.own_frame(os.path.join(d, "result"), os.path.join(d, "truth")))
+            m = ev.trajectory_metrics(os.path.join(d, "result"), os.path.join(d, "truth"))
+        self.assertTrue(m["aligned_to_truth"])
+        self.assertAlmostEqual(m["ate_position_m"], 0.006 * math.sqrt(25 / 51), places=8)
+        self.assertLess(m["ate_orientation_rad"], 1e-8)
+        self.assertAlmostEqual(m["nees_position"], 2.0, places=6)
+        self.assertLess(m["nees_orientation"], 1e-10)
+
 
 CSV_HEADER = ("stamp,sensor,kind,rx,ry,rz,px,py,pz,time_offset,std_rx,std_ry,std_rz,std_px,"
               "std_py,std_pz,std_time_offset\n")

@@ -42,7 +42,7 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
                 run.truth.cameras[c].name.c_str(), after.rotation_deg, after.translation_mm,
                 after.time_offset_ms, after.rotation_sigma_ratio.maxCoeff(),
                 after.translation_sigma_ratio.maxCoeff(), after.time_offset_sigma_ratio);
-    // Measured (seed 3, 15 s): 0.002-0.009 deg, 1.04-1.17 mm, 0.049-0.076 ms, at most 1.9 sigma;
+    // Measured (seed 3, 15 s): 0.004-0.009 deg, 1.00-1.12 mm, 0.048-0.073 ms, at most 2 sigma;
     // with the board (test_estimator, 20 s): <= 0.015 deg, 0.41 mm, 0.045 ms.
     test::expectCalibrated(after, run.truth.cameras[c].name, 0.05, 1.5, 0.1);
   }
@@ -71,7 +71,7 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   corner_rms = std::sqrt(corner_rms / col);
   std::printf("%zu tags: corners %.3f mm RMS off the board, side %.3f mm (true %.3f)\n",
               landmarks.size(), corner_rms * 1e3, side * 1e3, board.tag_size * 1e3);
-  // Measured: 0.33 mm RMS over the 36 tags, the side 0.06 mm short. The scale comes from
+  // Measured: 0.34 mm RMS over the 36 tags, the side 0.06 mm short. The scale comes from
   // the accelerometer alone: a 1% scale error would be 0.9 mm on the side.
   EXPECT_LT(corner_rms, 1e-3);
   EXPECT_NEAR(side, board.tag_size, 2e-4);
@@ -84,17 +84,23 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   EXPECT_LT((g_board.normalized() - kGravity_G.normalized()).norm(), 1e-3);
 
   // The trajectory in the board frame, after the first 5 s.
-  std::vector<EstimatorState> converged;
+  std::vector<EstimatorState> converged, own;
   const auto trajectory = estimator->trajectory();
   for (auto s : trajectory) {
     if (s.stamp_ns - trajectory.front().stamp_ns <= fromSeconds(5.0)) continue;
+    own.push_back(s);
     s.T_G_I = T_board_G * s.T_G_I;
     converged.push_back(s);
   }
   const double ate = positionRmse(converged, run.truth_trajectory);
-  std::printf("ATE after 5 s, board frame by the tags' alignment: %.2f mm\n", ate * 1e3);
-  // Measured 0.97 mm (with the board, 20 s: about 1 mm).
+  const double aligned = positionRmse(own, run.truth_trajectory, true);
+  std::printf(
+      "ATE after 5 s, board frame by the tags' alignment: %.2f mm, best rigid fit %.2f mm\n",
+      ate * 1e3, aligned * 1e3);
+  // Measured 0.96 mm (with the board, 20 s: about 1 mm). The best rigid fit of the trajectory
+  // itself (positionRmse's alignment) cannot do worse than the tags' transform.
   EXPECT_LT(ate, 3e-3);
+  EXPECT_LE(aligned, ate);
 }
 
 }  // namespace

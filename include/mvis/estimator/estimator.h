@@ -18,6 +18,13 @@
 // so a time offset far from the configured one (a driver stamping on arrival) is corrected before
 // the window starts. Until then `status()` says what it is waiting for.
 //
+// Without a board (no aprilgrid.yaml, report Eq. 11) every tag's four corners are a landmark
+// block, one TagReprojectionFactor per tag and frame (estimator_landmarks.cpp). The poses before
+// the window come from one tag of unknown side per camera (its centre; rotations from the
+// gyroscope), the side from the same fit as gravity, over 4 s; the world frame is gravity-aligned
+// at the first state, held by a tight prior on its pose. A tag leaves (is marginalized) with the
+// last state that sees it.
+//
 // Auxiliary inertial sensors (report Sec. 3): every auxiliary IMU has a state [v, b_g, b_a] (or
 // [b_g, b_a] with the rigid-velocity model) and every gyroscope a bias state at each window time,
 // tied to the base states through the interpolated base pose and its extrinsic T_i_b and time

@@ -13,9 +13,11 @@ namespace mvis {
 
 // Root-mean-square position error [m] of the estimated states against a denser true
 // trajectory (interpolated at the states' stamps), in the common world frame, without
-// alignment. States outside the truth's time span are skipped; NaN if none is left.
+// alignment; with `align`, after the rigid (SE(3)) alignment of the estimated positions onto the
+// true ones (for an estimate in a frame of its own, without a board). States outside the truth's
+// time span are skipped; NaN if none is left.
 double positionRmse(const std::vector<EstimatorState>& estimate,
-                    const std::vector<StampedPose>& truth);
+                    const std::vector<StampedPose>& truth, bool align = false);
 
 // Errors of one camera's (or inertial sensor's) extrinsic and time offset against the truth, in
 // the estimate's tangent (T_true = T_est Exp(delta)).

@@ -49,6 +49,12 @@ void Estimator::Impl::addInitFrame(TagFrame frame, TimeNs t) {
     alignClocks();
     clocks_aligned = true;
   }
+  // Without a board the first batch must also place every tag and tell the extrinsics'
+  // translations from where the tags are: it waits for more motion.
+  if (landmarkMode() && !init.empty() && init.back().t - init.front().t < kLandmarkBatchNs) {
+    status_text += "; collecting 4 s of motion to place the tags";
+    return;
+  }
   // A corrected cam0 clock moves the states later than the readings may reach yet: the next
   // frame comes when they do.
   if (init.empty() || imu.back().stamp_ns < init.back().t) return;

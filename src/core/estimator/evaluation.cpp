@@ -1,5 +1,6 @@
 #include "mvis/estimator/evaluation.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -9,10 +10,9 @@
 namespace mvis {
 
 double positionRmse(const std::vector<EstimatorState>& estimate,
-                    const std::vector<StampedPose>& truth) {
+                    const std::vector<StampedPose>& truth, bool align) {
   std::map<TimeNs, SE3> by_stamp(truth.begin(), truth.end());
-  double sum = 0.0;
-  int n = 0;
+  std::vector<Eigen::Vector3d> est, ref;
   for (const auto& s : estimate) {
     auto after = by_stamp.lower_bound(s.stamp_ns);
     if (after == by_stamp.end()) continue;
@@ -24,10 +24,25 @@ double positionRmse(const std::vector<EstimatorState>& estimate,
                             static_cast<double>(after->first - before->first);
       p = lie::interpolatePose(before->second, after->second, lambda).p;
     }
-    sum += (p - s.T_G_I.p).squaredNorm();
-    ++n;
+    ref.push_back(p);
+    est.push_back(s.T_G_I.p);
   }
-  return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::quiet_NaN();
+  const std::size_t n = est.size();
+  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  if (align && n >= 3) {
+    Eigen::Matrix3Xd a(3, n), b(3, n);
+    for (std::size_t i = 0; i < n; ++i) {
+      a.col(i) = est[i];
+      b.col(i) = ref[i];
+    }
+    T = Eigen::umeyama(a, b, false);
+  }
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sum += (ref[i] - (T.topLeftCorner<3, 3>() * est[i] + T.topRightCorner<3, 1>())).squaredNorm();
+  }
+  return std::sqrt(sum / n);
 }
 
 namespace {
