@@ -42,9 +42,10 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
                 run.truth.cameras[c].name.c_str(), after.rotation_deg, after.translation_mm,
                 after.time_offset_ms, after.rotation_sigma_ratio.maxCoeff(),
                 after.translation_sigma_ratio.maxCoeff(), after.time_offset_sigma_ratio);
-    // Measured (seed 3, 15 s): 0.004-0.009 deg, 1.00-1.12 mm, 0.048-0.073 ms, at most 2 sigma;
-    // with the board (test_estimator, 20 s): <= 0.015 deg, 0.41 mm, 0.045 ms.
-    test::expectCalibrated(after, run.truth.cameras[c].name, 0.05, 1.5, 0.1);
+    // Measured (seed 3, 15 s): 0.013-0.016 deg, 0.72-0.80 mm, 0.062-0.089 ms, at most 1.7 sigma;
+    // with the board (test_estimator, 20 s): <= 0.015 deg, 0.41 mm, 0.045 ms. The time offsets'
+    // bound is their 3 sigma after 15 s.
+    test::expectCalibrated(after, run.truth.cameras[c].name, 0.05, 1.5, 0.15);
   }
   for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
     const CameraErrors after = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
@@ -97,7 +98,7 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   std::printf(
       "ATE after 5 s, board frame by the tags' alignment: %.2f mm, best rigid fit %.2f mm\n",
       ate * 1e3, aligned * 1e3);
-  // Measured 0.96 mm (with the board, 20 s: about 1 mm). The best rigid fit of the trajectory
+  // Measured 0.75 mm (with the board, 20 s: about 1 mm). The best rigid fit of the trajectory
   // itself (positionRmse's alignment) cannot do worse than the tags' transform.
   EXPECT_LT(ate, 3e-3);
   EXPECT_LE(aligned, ate);

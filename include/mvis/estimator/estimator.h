@@ -74,7 +74,8 @@ struct EstimatorOptions {
   int threads = 1;                 // Ceres threads
   double pixel_sigma_px = 1.0;     // corner noise [px]
   // Robust loss threshold [sigma units], 0: plain squares: Huber on a camera factor's whitened
-  // squared norm (a frame's corners together; one tag's without a board). At the default a
+  // squared norm (a frame's corners together; without a board each tag's, at huber_sigma /
+  // sqrt(tags in the frame), which weighs a frame the same). At the default a
   // frame of N > 4 corners counts like about 3 sqrt(N/2) of them, which stands in for the error
   // its corners share (IMU-propagated frame poses carry no IMU noise); doc/results.md compares
   // counting every corner (0).

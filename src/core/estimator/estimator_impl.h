@@ -217,8 +217,10 @@ struct Estimator::Impl {
   double initial_tag_side = 1.0;  // [m] from the initial alignment
   // The first state's pose defines the world frame without a board: a prior this tight [rad, m].
   static constexpr double kGaugeStd = 1e-6;
-  // The camera factors' robust loss (options.huber_sigma), null for plain squares.
+  // The camera factors' robust loss (options.huber_sigma), null for plain squares; without a
+  // board, per number of tags in the frame (tagLoss).
   std::unique_ptr<ceres::LossFunction> huber;
+  std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses;
   std::unique_ptr<ceres::Problem> problem;
   std::deque<std::unique_ptr<State>> states;
   // The marginalization prior, if any: its row groups (MarginalizationFactor::splitRows).
@@ -355,8 +357,21 @@ struct Estimator::Impl {
   // corners, or without a board one per tag with the tag's landmark block.
   struct FramePiece {
     ceres::CostFunction* cost;
+    ceres::LossFunction* loss;
     std::vector<double*> blocks;
   };
+  // Without a board, the loss of each of a frame's T tag factors: Huber at huber_sigma /
+  // sqrt(T), so that the frame weighs as it would as one factor with the board (the Huber on
+  // its whole norm counts a frame of N corners like about 3 sqrt(N/2) of them, see
+  // EstimatorOptions::huber_sigma): a frame's tags share its errors, whatever holds its corners.
+  ceres::LossFunction* tagLoss(int tags) {
+    if (!huber) return nullptr;
+    auto& loss = tag_losses[tags];
+    if (!loss) {
+      loss = std::make_unique<ceres::HuberLoss>(options.huber_sigma / std::sqrt(double(tags)));
+    }
+    return loss.get();
+  }
   std::vector<FramePiece> frameFactors(const TagFrame& frame, std::size_t k, State** owner,
                                        int* corners);
 

@@ -153,7 +153,9 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
   const auto shared = TagReprojectionFactor::makeSharedCameraPose();
   for (auto& [obs, landmark] : groups) {
     TagReprojectionFactor* factor = make(std::move(obs));
-    FramePiece piece{factor, blocks};
+    FramePiece piece{factor,
+                     landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber.get(),
+                     blocks};
     if (landmark != nullptr) {
       factor->useLandmarkBlock();
       factor->shareCameraPose(shared);
@@ -190,7 +192,7 @@ void Estimator::Impl::addFrame(const TagFrame& frame, std::size_t k) {
   auto pieces = frameFactors(frame, k, &owner, &corners);
   if (pieces.empty()) return;
   for (auto& piece : pieces) {
-    addRecord(owner, piece.cost, huber.get(), std::move(piece.blocks));
+    addRecord(owner, piece.cost, piece.loss, std::move(piece.blocks));
   }
   owner->frames += 1;
   owner->corners += corners;
