@@ -71,6 +71,19 @@ add_custom_target(mvis_replay_data DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
 add_dependencies(tests mvis_replay_data)
 add_rostest(test/ros/replay.test ARGS data:=${MVIS_REPLAY_DATA}
   DEPENDENCIES mvis_ros mvis_node mvis_replay_data)
+# The same bag without the board's aprilgrid.yaml: tag corners as landmarks.
+set(MVIS_NOBOARD_CONFIG ${CMAKE_BINARY_DIR}/test_data/replay_noboard_config)
+add_custom_command(OUTPUT ${MVIS_NOBOARD_CONFIG}/kalibr_imu_chain.yaml
+  COMMAND ${CMAKE_COMMAND} -E remove_directory ${MVIS_NOBOARD_CONFIG}
+  COMMAND ${CMAKE_COMMAND} -E copy_directory ${MVIS_REPLAY_DATA}/config ${MVIS_NOBOARD_CONFIG}
+  COMMAND ${CMAKE_COMMAND} -E remove ${MVIS_NOBOARD_CONFIG}/aprilgrid.yaml
+  DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
+add_custom_target(mvis_noboard_config DEPENDS ${MVIS_NOBOARD_CONFIG}/kalibr_imu_chain.yaml)
+add_dependencies(tests mvis_noboard_config)
+add_rostest(test/ros/replay_noboard.test
+  ARGS data:=${MVIS_REPLAY_DATA} config:=${MVIS_NOBOARD_CONFIG}
+       result:=${CMAKE_BINARY_DIR}/test_data/replay_noboard_result
+  DEPENDENCIES mvis_ros mvis_node mvis_noboard_config)
 mvis_core_test(test_initialization test/unit/test_initialization.cpp)
 mvis_core_test(test_estimate_log test/unit/test_estimate_log.cpp)
 
