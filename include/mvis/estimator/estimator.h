@@ -107,7 +107,7 @@ struct EstimatorOptions {
   // E.g. {"cam1.intrinsics", "imu2.time_offset", "imu0.gravity_sensitivity"}.
   std::vector<std::string> hold;
   int init_frames = 10;        // consecutive cam0 frames with a board pose to initialize
-  int min_tags = 2;            // tags a frame needs to be used at all
+  int min_tags = 2;            // tags a frame needs to be used at all (1 without a board)
   double gravity_m_s2 = 9.81;  // magnitude of gravity
   // Prior standard deviations where the configuration has no *_std keys.
   double extrinsic_rotation_prior_rad = 0.1;

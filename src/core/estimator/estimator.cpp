@@ -152,7 +152,10 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
 Status Estimator::Impl::addTagFrame(const TagFrame& frame) {
   if (frame.camera >= rig.cameras.size()) return Status::Error("tag frame of an unknown camera");
   const std::string& name = rig.cameras[frame.camera].name;
-  if (static_cast<int>(frame.tags.size()) < options.min_tags) {
+  // Without a board one tag is a frame's worth: four corners of a landmark (a rig among
+  // scattered tags often sees only one).
+  const int min_tags = landmarkMode() ? 1 : options.min_tags;
+  if (static_cast<int>(frame.tags.size()) < min_tags) {
     ++counters.frames_too_few_tags;
     return Status::Ok();  // nothing wrong with the data, just nothing to use
   }
