@@ -31,9 +31,6 @@ bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& fram
 // taken as `size` [m]. False when the tag is not in the frame or PnP fails.
 bool tagPose(const Camera& camera, const TagFrame& frame, int tag_id, double size, SE3* T_T_C);
 
-// The corners of a tag of side `size` in its own frame (corner order of tag_observation.h).
-Eigen::Vector3d tagCorner(int k, double size);
-
 // The correction [s] to a camera's time offset that best matches its angular velocity, from
 // board rotations R_G_C at camera-clock stamps, with the gyroscope, searched within +-range_s at
 // 1 ms and refined by a parabola. The camera's rate is the mean over ~0.15 s between board

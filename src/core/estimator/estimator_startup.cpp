@@ -52,7 +52,9 @@ void Estimator::Impl::addInitFrame(TagFrame frame, TimeNs t) {
   // Without a board the first batch must also place every tag and tell the extrinsics'
   // translations from where the tags are: it waits for more motion.
   if (landmarkMode() && !init.empty() && init.back().t - init.front().t < kLandmarkBatchNs) {
-    status_text += "; collecting 4 s of motion to place the tags";
+    std::ostringstream wait;
+    wait << "; collecting " << toSeconds(kLandmarkBatchNs) << " s of motion to place the tags";
+    status_text += wait.str();
     return;
   }
   // A corrected cam0 clock moves the states later than the readings may reach yet: the next
@@ -118,12 +120,12 @@ void Estimator::Impl::initialize() {
   // with c_i the pose tag's centre in cam0's frame in sides and s the side; the world's origin at
   // the tag's centre until the alignment below moves it.
   std::vector<Eigen::Vector3d> scaled;
+  const SE3 T_I_C = poseToSE3(cameras[0]->extrinsic).inverse();
   for (std::size_t i = 0; i < n; ++i) {
     if (!landmarkMode()) {
       poses.push_back(init[i].T_G_I);
       continue;
     }
-    const SE3 T_I_C = poseToSE3(cameras[0]->extrinsic).inverse();
     const Eigen::Quaterniond q =
         i == 0 ? Eigen::Quaterniond::Identity() : (poses.back().q * pre[i - 1]->deltaR());
     poses.push_back(SE3(q.normalized(), -(q * T_I_C.p)));

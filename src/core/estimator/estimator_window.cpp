@@ -150,7 +150,8 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
     };
   }
   std::vector<FramePiece> out;
-  const auto shared = TagReprojectionFactor::makeSharedCameraPose();
+  // A frame's tag factors share its camera pose (without a board; with one it has one factor).
+  const auto shared = landmarkMode() ? TagReprojectionFactor::makeSharedCameraPose() : nullptr;
   for (auto& [obs, landmark] : groups) {
     TagReprojectionFactor* factor = make(std::move(obs));
     FramePiece piece{factor,

@@ -51,10 +51,6 @@ bool boardPose(const Camera& camera, const AprilGrid& grid, const TagFrame& fram
                     4 * static_cast<std::size_t>(std::max(1, min_tags)), T_G_C);
 }
 
-Eigen::Vector3d tagCorner(int k, double size) {
-  return Eigen::Vector3d(k == 1 || k == 2 ? size : 0.0, k >= 2 ? size : 0.0, 0.0);
-}
-
 bool tagPose(const Camera& camera, const TagFrame& frame, int tag_id, double size, SE3* T_T_C) {
   for (const auto& tag : frame.tags) {
     if (tag.tag_id != tag_id) continue;

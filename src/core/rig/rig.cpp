@@ -19,9 +19,11 @@ Eigen::Vector3d AprilGrid::corner(int id, int c) const {
   const double pitch = (1.0 + tag_spacing) * tag_size;
   const double x0 = pitch * (id % tag_cols);
   const double y0 = pitch * (id / tag_cols);
-  const double dx = (c == 1 || c == 2) ? tag_size : 0.0;
-  const double dy = (c == 2 || c == 3) ? tag_size : 0.0;
-  return Eigen::Vector3d(x0 + dx, y0 + dy, 0.0);
+  return Eigen::Vector3d(x0, y0, 0.0) + tagCorner(c, tag_size);
+}
+
+Eigen::Vector3d tagCorner(int c, double side) {
+  return Eigen::Vector3d(c == 1 || c == 2 ? side : 0.0, c >= 2 ? side : 0.0, 0.0);
 }
 
 std::string Rig::summary() const {
