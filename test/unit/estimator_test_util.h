@@ -50,7 +50,8 @@ struct SimRun {
 
 inline SimRun simulate(const std::string& rig_dir, double duration_s, std::uint64_t seed,
                        MotionKind motion = MotionKind::kHandheld, bool perturb_intrinsics = false,
-                       const std::function<void(Rig*)>& edit_truth = nullptr) {
+                       const std::function<void(Rig*)>& edit_truth = nullptr,
+                       const std::function<void(SimulationConfig*)>& edit_config = nullptr) {
   SimRun run;
   auto truth = loadRig(std::string(MVIS_SOURCE_DIR) + "/config/" + rig_dir);
   EXPECT_TRUE(truth.ok()) << truth.status().message();
@@ -67,6 +68,7 @@ inline SimRun simulate(const std::string& rig_dir, double duration_s, std::uint6
     config.camera_rate_hz.push_back(cam.name == "cam1" && run.truth.cameras.size() == 3 ? 25.0
                                                                                         : 30.0);
   }
+  if (edit_config) edit_config(&config);
   auto trajectory = runSimulation(run.truth, config, &run.data);
   EXPECT_TRUE(trajectory.ok()) << trajectory.status().message();
   run.truth_trajectory = trajectory.value();

@@ -101,6 +101,56 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
   EXPECT_LT(ate_converged, 0.002);
 }
 
+// Without noise (IMU and corners exact, the same rough initial guess) the estimate must reach the
+// truth: what is left is bias in the model itself (preintegration, frame-pose propagation, the
+// time offsets' sign and Jacobians, the linearization points the marginalization kept from the
+// first, rough seconds), which the noisy runs cannot see under their noise (20 s: about 0.04 ms,
+// 0.01 deg, 0.4 mm per camera, 1 sigma).
+// Measured (seed 3): cameras 0.0020 deg, 0.213 mm, 0.004 ms; imu1 0.0015 deg, 0.12 mm,
+// 0.004 ms; imu2 0.0012 deg, 0.001 ms; ATE after 10 s 0.22 mm. The cameras' 0.21 mm is one
+// shift of imu0 along its own z, the same for the three; started at the true calibration it is
+// still 0.14 mm (and 0.003 ms), with any window size (4, 12, 30 states), solver tolerance or
+// IMU rate (500 or 2000 Hz): a small bias whose source is not found yet.
+TEST(Estimator, NoiseFreeDataLeaveNoBias) {
+  const SimRun run = simulate("sim_vi_rig", 20.0, 3, MotionKind::kHandheld, false, nullptr,
+                              [](SimulationConfig* c) {
+                                c->imu_noise = false;
+                                c->pixel_noise_px = 0.0;
+                              });
+  EstimatorOptions options = deterministic();
+  options.pixel_sigma_px = 0.5;  // weights as in the noisy runs
+  const auto estimator = runFrom(run.guess, run, options);
+  ASSERT_TRUE(estimator);
+  const Rig estimate = estimator->calibration();
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
+    std::printf("%s noise-free: rotation %.5f deg, translation %.4f mm, time offset %.5f ms\n",
+                run.truth.cameras[c].name.c_str(), e.rotation_deg, e.translation_mm,
+                e.time_offset_ms);
+    EXPECT_LT(e.rotation_deg, 0.005) << run.truth.cameras[c].name;
+    EXPECT_LT(e.translation_mm, 0.5) << run.truth.cameras[c].name;
+    EXPECT_LT(e.time_offset_ms, 0.01) << run.truth.cameras[c].name;
+  }
+  for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
+    const CameraErrors e = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
+    std::printf("%s noise-free: rotation %.5f deg, translation %.4f mm, time offset %.5f ms\n",
+                run.truth.inertial[i].name.c_str(), e.rotation_deg, e.translation_mm,
+                e.time_offset_ms);
+    EXPECT_LT(e.rotation_deg, 0.005) << run.truth.inertial[i].name;
+    EXPECT_LT(e.translation_mm, 0.5) << run.truth.inertial[i].name;
+    EXPECT_LT(e.time_offset_ms, 0.01) << run.truth.inertial[i].name;
+  }
+  const auto trajectory = estimator->trajectory();
+  std::vector<EstimatorState> converged;
+  for (const auto& s : trajectory) {
+    if (s.stamp_ns - trajectory.front().stamp_ns > fromSeconds(10.0)) converged.push_back(s);
+  }
+  const double ate = positionRmse(converged, run.truth_trajectory);
+  std::printf("noise-free ATE after 10 s: %.3f mm over %zu states\n", ate * 1e3,
+              converged.size());
+  EXPECT_LT(ate, 0.5e-3);
+}
+
 // Max errors over a rig's cameras.
 struct WorstErrors {
   double rotation_deg = 0.0, translation_mm = 0.0, time_offset_ms = 0.0;
