@@ -333,6 +333,41 @@ def pose_nees(p_est, R_est, cov, p_true, R_true):
     return np.array(nees_R), np.array(nees_p)
 
 
+def time_offset_floor(truth, gyro_noise_density, accel_noise_density, gravity=9.81):
+    """A lower bound on a time offset's standard deviation [s] from the base IMU's white noise
+    along a trajectory (imu0 in a z-up world, read_tum's tuple, evenly sampled), as if everything
+    else - the poses the cameras see, biases, gravity, extrinsics - were known exactly. Shifting
+    a signal s(t) read with white noise of density q by dt changes it by s'(t) dt, so the
+    information on dt is the integral of |s'|^2 / q^2: the gyroscope's s = w (rate in {I}), the
+    accelerometer's s = f = R^T (a - g) (specific force in {I}, which turns with the rig).
+    The cameras' own noise only adds to it: an estimate can reach the floor only with perfect
+    cameras, and no estimator goes below it."""
+    t_ns, p, R = truth
+    t = (t_ns - t_ns[0]) * 1e-9
+    dt = np.diff(t)
+    # Rate in {I} at the midpoints, then its derivative at the inner samples.
+    w = np.array([log_so3(R[i].T @ R[i + 1]) for i in range(len(t) - 1)]) / dt[:, None]
+    t_mid = 0.5 * (t[:-1] + t[1:])
+    w_dot = np.diff(w, axis=0) / np.diff(t_mid)[:, None]
+    # Acceleration at the inner samples (second central difference), specific force in {I}.
+    v = np.diff(p, axis=0) / dt[:, None]
+    a = np.diff(v, axis=0) / np.diff(t_mid)[:, None]
+    g = np.array([0.0, 0.0, -gravity])
+    f = np.einsum("nji,nj->ni", R[1:-1], a - g)
+    f_dot = np.diff(f, axis=0) / np.diff(t[1:-1])[:, None]
+    step = np.mean(dt)
+    information = (np.sum(w_dot ** 2) / gyro_noise_density ** 2
+                   + np.sum(f_dot ** 2) / accel_noise_density ** 2) * step
+    return float(1.0 / math.sqrt(information))
+
+
+def base_imu_noise(truth_dir):
+    """(gyroscope, accelerometer) noise densities of imu0 in TRUTH_DIR/kalibr_imu_chain.yaml."""
+    with open(os.path.join(truth_dir, "kalibr_imu_chain.yaml")) as f:
+        imu0 = yaml.safe_load(f)["imu0"]
+    return float(imu0["gyroscope_noise_density"]), float(imu0["accelerometer_noise_density"])
+
+
 def own_frame(result_dir, truth_dir):
     """Whether the estimate is in a frame of its own: the simulation had a board but the
     estimator ran without it (no aprilgrid.yaml in its result: tags as landmarks)."""
@@ -350,6 +385,8 @@ def trajectory_metrics(result_dir, truth_dir):
     mask, p_t, R_t = interpolate_truth(truth, t)
     t, p, R = t[mask], p[mask], R[mask]
     out = {"states": int(len(t)), "aligned_to_truth": own_frame(result_dir, truth_dir)}
+    if os.path.exists(os.path.join(truth_dir, "kalibr_imu_chain.yaml")):
+        out["time_offset_floor_s"] = time_offset_floor(truth, *base_imu_noise(truth_dir))
     R_a, t_a = np.eye(3), np.zeros(3)
     if out["aligned_to_truth"]:
         R_a = R_t[0] @ R[0].T
@@ -412,6 +449,9 @@ def markdown_report(table, metrics):
     lines.append("| RPE over 1 s, translation [mm] | %.2f |" % (metrics["rpe_1s_translation_m"] * 1e3))
     lines.append("| RPE over 1 s, rotation [deg] | %.3f |"
                  % math.degrees(metrics["rpe_1s_rotation_rad"]))
+    if "time_offset_floor_s" in metrics:
+        lines.append("| time offsets' floor from imu0's noise, all else known (1 sigma) [ms] | %.4f |"
+                     % (metrics["time_offset_floor_s"] * 1e3))
     if "nees_orientation" in metrics:
         lines.append("| mean NEES orientation (3 dof, consistent: ~3) over %d poses | %.2f |"
                      % (metrics["nees_samples"], metrics["nees_orientation"]))

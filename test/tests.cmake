@@ -86,6 +86,7 @@ add_rostest(test/ros/replay_noboard.test
   DEPENDENCIES mvis_ros mvis_node mvis_noboard_config)
 mvis_core_test(test_initialization test/unit/test_initialization.cpp)
 mvis_core_test(test_estimate_log test/unit/test_estimate_log.cpp)
+mvis_core_test(test_evaluation test/unit/test_evaluation.cpp)
 
 # Evaluation scripts (scripts/mvis_evaluation.py, scripts/monte_carlo): Python unit tests on
 # synthetic inputs with known answers, with Debian's python3 and numpy/matplotlib.

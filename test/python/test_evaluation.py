@@ -58,6 +58,25 @@ class Rotations(unittest.TestCase):
         self.assertEqual(ev.parse_stamp("-0.25"), -250000000)
 
 
+class TimeOffsetFloor(unittest.TestCase):
+    def test_yaw_oscillation_closed_form(self):
+        # Yaw about gravity at a fixed point, psi = A sin(2 pi f t): the specific force never
+        # changes, so the floor is the gyroscope's, q / sqrt(T A^2 (2 pi f)^4 / 2) over whole
+        # periods (as test_evaluation.cpp checks the C++ twin).
+        A, f, T, rate = 0.5, 1.5, 10.0, 500.0
+        n = int(T * rate) + 1
+        t = 10**18 + np.arange(n, dtype=np.int64) * 2000000
+        s = np.arange(n) / rate
+        R = np.array([ev.exp_so3([0.0, 0.0, A * math.sin(2 * math.pi * f * x)]) for x in s])
+        p = np.tile([0.3, -0.2, 1.2], (n, 1))
+        q = 1.7e-4
+        expected = q / math.sqrt(T * A * A * (2 * math.pi * f) ** 4 / 2)
+        floor = ev.time_offset_floor((t, p, R), q, 2e-3)
+        self.assertAlmostEqual(floor / expected, 1.0, delta=2e-3)
+        self.assertAlmostEqual(ev.time_offset_floor((t, p, R), q / 2, 2e-3) / floor, 0.5,
+                               delta=1e-6)
+
+
 class Trajectory(unittest.TestCase):
     def setUp(self):
         n = 201  # 10 s at 20 Hz

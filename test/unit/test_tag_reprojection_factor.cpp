@@ -211,6 +211,58 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
             1e-5);
 }
 
+// The readings' noise over [t_k, t_a] as a block: at zero it changes nothing, a position noise
+// is the anchor moved by R_k n_p (the same residuals as state k's position moved by it), and the
+// Jacobians, the noise block's included, match central differences away from zero.
+TEST(TagReprojectionFactor, ImuPropagatedWithPropagationNoise) {
+  const Scene s = makeScene(0.01);
+  const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
+  const Eigen::Vector3d bg(1e-3, -2e-3, 5e-4), ba(0.02, -0.01, 0.03);
+  auto plain = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+  auto noisy = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+  noisy->usePropagationNoise();
+  ASSERT_EQ(noisy->parameter_block_sizes().size(), 7u);
+  ASSERT_EQ(noisy->parameter_block_sizes().back(), kPropagationNoiseSize);
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
+  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
+  std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
+                                             sb,
+                                             {g.x(), g.y(), g.z()},
+                                             poseBlock(s.rig.cameras[2].T_cam_imu),
+                                             {0.012},
+                                             intrinsicsBlock(s.rig.cameras[2])};
+  const auto residualsOf = [](const TagReprojectionFactor& f,
+                              const std::vector<std::vector<double>>& b) {
+    std::vector<const double*> ptrs;
+    for (const auto& x : b) ptrs.push_back(x.data());
+    Eigen::VectorXd r(f.num_residuals());
+    EXPECT_TRUE(f.Evaluate(ptrs.data(), r.data(), nullptr));
+    return r;
+  };
+  std::vector<std::vector<double>> with_noise = blocks;
+  with_noise.push_back(std::vector<double>(kPropagationNoiseSize, 0.0));
+  const Eigen::VectorXd r_plain = residualsOf(*plain, blocks);
+  EXPECT_LT((residualsOf(*noisy, with_noise) - r_plain).cwiseAbs().maxCoeff(), 1e-12);
+  // n_p = 2 mm: as if p_k had moved by R_k n_p; and it does move the corners (~1 px).
+  const Eigen::Vector3d n_p(0.002, -0.001, 0.0015);
+  for (int i = 0; i < 3; ++i) with_noise.back()[3 + i] = n_p[i];
+  std::vector<std::vector<double>> moved = blocks;
+  Eigen::Map<Eigen::Vector3d>(moved[0].data() + 4) += sk.T_G_I.q * n_p;
+  const Eigen::VectorXd r_noise = residualsOf(*noisy, with_noise);
+  EXPECT_LT((r_noise - residualsOf(*plain, moved)).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT((r_noise - r_plain).cwiseAbs().maxCoeff(), 1.0);  // whitened: 0.5 px
+  with_noise.back() = {2e-3, -1e-3, 3e-3, 0.002, -0.001, 0.0015, 0.01, -0.02, 0.005};
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&pose,   nullptr, &sphere, &pose,
+                                                         nullptr, nullptr, nullptr};
+  EXPECT_LT(
+      test::jacobianMismatch(test::analyticTangentJacobians(*noisy, with_noise, manifolds),
+                             test::numericTangentJacobians(*noisy, with_noise, manifolds, 1e-6)),
+      1e-5);
+}
+
 // Without a board the corners are landmark states (report Eq. 11): at the true corners the
 // factor reproduces the projections, and its Jacobians, the landmark block's included, match
 // central differences away from the truth.
@@ -297,6 +349,16 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
                                                          nullptr, nullptr, nullptr};
   EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*factor, blocks, manifolds),
                                    test::numericTangentJacobians(*factor, blocks, manifolds, 1e-6)),
+            1e-5);
+  // With the propagation noise as well (both move the anchor's deltas).
+  std::unique_ptr<TagReprojectionFactor> noisy(TagReprojectionFactor::imuPropagated(
+      s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
+  noisy->usePropagationNoise();
+  blocks.push_back({2e-3, -1e-3, 3e-3, 0.002, -0.001, 0.0015, 0.01, -0.02, 0.005});
+  std::vector<const ceres::Manifold*> with_noise = manifolds;
+  with_noise.push_back(nullptr);
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*noisy, blocks, with_noise),
+                                   test::numericTangentJacobians(*noisy, blocks, with_noise, 1e-6)),
             1e-5);
 }
 

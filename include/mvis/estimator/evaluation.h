@@ -19,6 +19,18 @@ namespace mvis {
 double positionRmse(const std::vector<EstimatorState>& estimate,
                     const std::vector<StampedPose>& truth, bool align = false);
 
+// A lower bound on a time offset's standard deviation [s] from the base IMU's white noise along
+// a true trajectory of imu0 (evenly sampled, a z-up world with gravity `gravity_m_s2`), as if
+// everything else - the poses the cameras see, biases, gravity, extrinsics - were known. A
+// signal s(t) read with white noise of density q and shifted by dt changes by s'(t) dt, so
+// the information on dt is the integral of |s'|^2 / q^2: the gyroscope's s = w (rate in {I})
+// and the accelerometer's s = f = R^T (a - g) (specific force in {I}, which turns with the
+// rig). Finite differences of the trajectory. No estimate can be more certain than this; the
+// cameras' own noise only adds. (scripts/mvis_evaluation.py's time_offset_floor is the same
+// for result directories.)
+double timeOffsetFloor(const std::vector<StampedPose>& truth, const ImuNoise& noise,
+                       double gravity_m_s2 = 9.81);
+
 // Errors of one camera's (or inertial sensor's) extrinsic and time offset against the truth, in
 // the estimate's tangent (T_true = T_est Exp(delta)).
 struct CameraCalibrationError {

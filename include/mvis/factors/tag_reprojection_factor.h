@@ -26,6 +26,13 @@
 //     bias when one axis stays near vertical).
 //     Linear (pose-based) interpolation errs by ~|a| T^2 / 8 between 30 Hz states, ~0.1 px at
 //     1 m on the VI-Rig, which biased its extrinsics by ~2 mm in simulation; this does not.
+//     The readings' own noise over [t_k, t_a] (optional block n = [n_theta, n_p, n_v], 9 values,
+//     with a prior N(0, Sigma) from the preintegration's covariance, made by the estimator):
+//       dR = dR0 Exp(n_theta),  dp += n_p,  dv += n_v     (after the intrinsics' change)
+//     Without it a frame between states would take the propagation as exact: its corners would
+//     know state k's pose better than the readings do, and the time offsets their share of it
+//     (with 0.05 px corners the time offsets' std came out below what the base IMU's noise
+//     allows along the motion, the floor of scripts/mvis_evaluation.py's time_offset_floor).
 // A corner p_G is then seen at
 //   p_C = R_C_I R(t)^T (p_G - p(t)) + p_C_I
 //   z = pi(k, d, p_C) + n,  n ~ N(0, sigma^2 I2)
@@ -40,14 +47,16 @@
 //                    intrinsics [8]
 //   pose-based:      pose_k [7], pose_k+1 [7], extrinsic [7], time_offset [1], intrinsics [8]
 //   IMU-propagated:  pose_k [7], speed_bias_k [9], gravity [3], extrinsic [7], time_offset [1],
-//                    intrinsics [8], and with the IMU intrinsics the base IMU's block [24]
+//                    intrinsics [8], with the IMU intrinsics the base IMU's block [24], with
+//                    the propagation noise its block [9]
 //   then, with landmarks, the tag's corners [12]
 // Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame by forward-mode
 // automatic differentiation in the tangent directions of the blocks (pose and extrinsic
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
 // coordinates; t_d), then chained per corner with the projection's analytic Jacobian in p_C and
 // in the intrinsics (projectWithJacobians). The IMU intrinsics enter through 9 more directions,
-// perturbations of the anchor's deltas, chained with J_*_I. Pose-block Jacobians are written in the
+// perturbations of the anchor's deltas, chained with J_*_I, as does the propagation noise
+// (its rotation part through the right Jacobian of Exp). Pose-block Jacobians are written in the
 // tangent lift convention of state_blocks.h.
 #pragma once
 
@@ -72,6 +81,8 @@ struct CornerObservation {
 
 // Values in a tag's landmark block: four corners x [x y z] in the world frame.
 constexpr int kTagLandmarkSize = 12;
+// Values in a frame's propagation-noise block: [n_theta, n_p, n_v] of the anchor's deltas.
+constexpr int kPropagationNoiseSize = 9;
 
 class TagReprojectionFactor final : public ceres::CostFunction {
  public:
@@ -132,6 +143,10 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // landmark). Only with a landmark block; call after useLandmarkBlock.
   void shareCameraPose(std::shared_ptr<SharedCameraPose> shared);
 
+  // The readings' noise over [t_k, t_a] as a block (IMU-propagated only): appends a block of
+  // kPropagationNoiseSize values [n_theta, n_p, n_v]. Call before useLandmarkBlock.
+  void usePropagationNoise();
+
   // The corners are landmark states: appends the tag's landmark block (kTagLandmarkSize) as the
   // last parameter; every corner must name its index in it. Call before adding the factor.
   void useLandmarkBlock();
@@ -165,6 +180,7 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   std::vector<BlockLayout> layout_;
   ImuAnchor anchor_;
   int landmark_block_ = -1;  // index of the landmark block, -1 without
+  int noise_block_ = -1;     // index of the propagation-noise block, -1 without
   std::shared_ptr<SharedCameraPose> shared_;
 
   Interpolation interpolation_;

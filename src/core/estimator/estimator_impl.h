@@ -38,6 +38,10 @@ constexpr TimeNs kMinStateIntervalNs = 5000000;  // 5 ms
 // error at 1 rad/s moves it by 2e-5 rad (~0.01 px), and each such block costs the solver a
 // 24-column Jacobian per frame (J^T J was 15% of the run).
 constexpr TimeNs kIntrinsicsAnchorSpanNs = 2000000;  // 2 ms
+// A frame propagated less than this from its state (cam0's, at their state's time) carries no
+// propagation-noise block: its readings' noise is under 1e-5 rad there, and the block would cost
+// a parameter block per frame.
+constexpr TimeNs kPropagationNoiseSpanNs = 1000000;  // 1 ms
 namespace estimator_internal {
 
 using Clock = std::chrono::steady_clock;
@@ -67,6 +71,8 @@ struct State {
   // Per auxiliary sensor (index sensor - 1): its state at t, or null while it has none.
   std::vector<std::unique_ptr<AuxState>> aux;
   std::vector<ResidualRecord> residuals;
+  // Propagation-noise blocks of the frames attached to this state (kPropagationNoiseSize each).
+  std::vector<std::unique_ptr<double[]>> propagation_noise;
   int frames = 0, corners = 0;
 
   EstimatorState toEstimate() const {
@@ -355,6 +361,9 @@ struct Estimator::Impl {
 
   // A frame's camera factors, owned by window state k (or its successor): one over its board
   // corners, or without a board one per tag with the tag's landmark block.
+  // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
+  // when the covariance is not positive definite.
+  static ceres::CostFunction* propagationNoisePrior(const Eigen::Matrix<double, 9, 9>& covariance);
   struct FramePiece {
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;

@@ -100,6 +100,8 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
   *owner = sk;
   std::vector<double*> blocks;
   std::function<TagReprojectionFactor*(std::vector<CornerObservation>)> make;
+  double* noise = nullptr;  // the frame's propagation-noise block, shared by its tags' factors
+  ceres::CostFunction* noise_prior = nullptr;
   if (options.interpolation == FrameInterpolation::kImu) {
     const TimeNs t_a = std::max(sk->t, frame.stamp_ns + timeOffsetNs(c));
     // The readings at t_a for the last few milliseconds (the time offset's change): corrected by
@@ -110,6 +112,8 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
     const double dt_nominal = toSeconds(frame.stamp_ns - t_a);
     TagReprojectionFactor::ImuAnchor anchor;
     blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    // The readings' covariance over [t_k, t_a], [dtheta, dp, dv] (imu_preintegration.h).
+    Eigen::Matrix<double, 9, 9> propagation_cov = Eigen::Matrix<double, 9, 9>::Zero();
     double* imu_in = imuIntrinsics(0);
     if (imu_in != nullptr && t_a - sk->t > kIntrinsicsAnchorSpanNs) {
       // Raw readings re-integrated at the state's biases and the current intrinsics, with the
@@ -119,6 +123,11 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
           imu_intrinsics[0]->frame, true);
       anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
       blocks.push_back(imu_in);
+      if (options.propagation_noise) {
+        const Eigen::Vector3d bg(sk->speed_bias + 3), ba(sk->speed_bias + 6);
+        propagation_cov =
+            preintegrate(sk->t, t_a, bg, ba, true)->covariance().topLeftCorner<9, 9>();
+      }
     } else {
       // Without intrinsics, or over so short a span (cam0's frames, at their state's time) that
       // they cannot matter: readings corrected by the current estimate, no intrinsics block
@@ -128,10 +137,22 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
                         &bg, &ba);
       auto pre = preintegrate(sk->t, t_a, bg, ba, true);
       anchor = TagReprojectionFactor::makeAnchor(*pre, dt_nominal, at.gyro, at.accel, alpha);
+      propagation_cov = pre->covariance().topLeftCorner<9, 9>();
+    }
+    if (options.propagation_noise && t_a - sk->t >= kPropagationNoiseSpanNs) {
+      noise_prior = propagationNoisePrior(propagation_cov);
+    }
+    if (noise_prior != nullptr) {
+      sk->propagation_noise.push_back(std::make_unique<double[]>(kPropagationNoiseSize));
+      noise = sk->propagation_noise.back().get();
+      std::fill(noise, noise + kPropagationNoiseSize, 0.0);
+      blocks.push_back(noise);
     }
     make = [&, anchor](std::vector<CornerObservation> obs) {
-      return TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
-                                                  anchor);
+      auto* f = TagReprojectionFactor::imuPropagated(model, std::move(obs), options.pixel_sigma_px,
+                                                     anchor);
+      if (noise != nullptr) f->usePropagationNoise();
+      return f;
     };
   } else if (c == 0) {
     const double dt_nominal = toSeconds(frame.stamp_ns - sk->t);
@@ -164,7 +185,23 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
     }
     out.push_back(std::move(piece));
   }
+  if (noise != nullptr) out.push_back({noise_prior, nullptr, {noise}});
   return out;
+}
+
+ceres::CostFunction* Estimator::Impl::propagationNoisePrior(
+    const Eigen::Matrix<double, 9, 9>& covariance) {
+  // A with A^T A = Sigma^-1, through the Jacobi-scaled S = D Sigma D (D = diag(Sigma)^-1/2: the
+  // rotation's and position's variances differ by orders of magnitude): A = L^-1 D, S = L L^T.
+  const Eigen::Matrix<double, 9, 1> d = covariance.diagonal();
+  if (!(d.minCoeff() > 0.0) || !d.allFinite()) return nullptr;
+  const Eigen::Matrix<double, 9, 1> D = d.cwiseSqrt().cwiseInverse();
+  const Eigen::Matrix<double, 9, 9> S = D.asDiagonal() * covariance * D.asDiagonal();
+  const Eigen::LLT<Eigen::Matrix<double, 9, 9>> llt(S);
+  if (llt.info() != Eigen::Success) return nullptr;
+  Eigen::Matrix<double, 9, 9> A = D.asDiagonal();
+  llt.matrixL().solveInPlace(A);
+  return new ceres::NormalPrior(A, Eigen::VectorXd::Zero(kPropagationNoiseSize));
 }
 
 Eigen::Vector3d Estimator::Impl::angularAcceleration(TimeNs t) const {
@@ -338,6 +375,7 @@ void Estimator::Impl::marginalizeOldest() {
   }
   for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
   std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
+  for (const auto& noise : oldest->propagation_noise) leaving.push_back(noise.get());
   const std::vector<double*> leaving_landmarks = leavingLandmarks(*oldest);
   leaving.insert(leaving.end(), leaving_landmarks.begin(), leaving_landmarks.end());
   for (std::size_t i = 0; i < aux.size(); ++i) {

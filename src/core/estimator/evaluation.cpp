@@ -224,6 +224,45 @@ std::string imuIntrinsicRows(const InertialSensor& ini, const InertialSensor& es
 
 }  // namespace
 
+double timeOffsetFloor(const std::vector<StampedPose>& truth, const ImuNoise& noise,
+                       double gravity_m_s2) {
+  const std::size_t n = truth.size();
+  if (n < 5 || !(noise.gyroscope_noise_density > 0.0) ||
+      !(noise.accelerometer_noise_density > 0.0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const auto time = [&](std::size_t i) { return toSeconds(truth[i].first - truth[0].first); };
+  // Rates in {I} between samples i and i+1, at their midpoints.
+  std::vector<Eigen::Vector3d> w(n - 1);
+  std::vector<double> t_mid(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const double dt = time(i + 1) - time(i);
+    w[i] = lie::logQuat(truth[i].second.q.conjugate() * truth[i + 1].second.q) / dt;
+    t_mid[i] = 0.5 * (time(i) + time(i + 1));
+  }
+  // Specific force in {I} at the inner samples (second central difference of the position).
+  const Eigen::Vector3d g(0.0, 0.0, -gravity_m_s2);
+  std::vector<Eigen::Vector3d> f(n - 2);
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const Eigen::Vector3d v0 =
+        (truth[i].second.p - truth[i - 1].second.p) / (time(i) - time(i - 1));
+    const Eigen::Vector3d v1 =
+        (truth[i + 1].second.p - truth[i].second.p) / (time(i + 1) - time(i));
+    const Eigen::Vector3d a = (v1 - v0) / (t_mid[i] - t_mid[i - 1]);
+    f[i - 1] = truth[i].second.q.conjugate() * (a - g);
+  }
+  const double step = (time(n - 1) - time(0)) / static_cast<double>(n - 1);
+  double gyro = 0.0, accel = 0.0;
+  for (std::size_t i = 0; i + 1 < w.size(); ++i) {
+    gyro += ((w[i + 1] - w[i]) / (t_mid[i + 1] - t_mid[i])).squaredNorm();
+  }
+  for (std::size_t i = 0; i + 1 < f.size(); ++i) {
+    accel += ((f[i + 1] - f[i]) / (time(i + 2) - time(i + 1))).squaredNorm();
+  }
+  const double qg = noise.gyroscope_noise_density, qa = noise.accelerometer_noise_density;
+  return 1.0 / std::sqrt((gyro / (qg * qg) + accel / (qa * qa)) * step);
+}
+
 CameraCalibrationError cameraError(const Camera& truth, const Camera& estimate) {
   return errorOf(ofCamera(truth), ofCamera(estimate));
 }

@@ -13,7 +13,7 @@ namespace {
 
 // Directions of the camera pose's derivatives: [dtheta_k, dp_k] 0-5; v_k, b_g,k, b_a,k 6-14
 // (or dtheta_k+1, dp_k+1 6-11 for pose-based); gravity 15-17; dtheta_e, dp_e 18-23; t_d 24;
-// with the IMU intrinsics the anchor's deltas [dtheta, dp, dv] 25-33.
+// with the IMU intrinsics or the propagation noise the anchor's deltas [dtheta, dp, dv] 25-33.
 constexpr int kStageDim = 25, kDeltaJet = 25;
 constexpr int kExtrinsicJet = 18, kTimeOffsetJet = 24;
 
@@ -131,6 +131,13 @@ void TagReprojectionFactor::shareCameraPose(std::shared_ptr<SharedCameraPose> sh
   if (landmark_block_ >= 0) shared_ = std::move(shared);
 }
 
+void TagReprojectionFactor::usePropagationNoise() {
+  if (interpolation_ != Interpolation::kImuPropagated || noise_block_ >= 0) return;
+  auto* sizes = mutable_parameter_block_sizes();
+  noise_block_ = static_cast<int>(sizes->size());
+  sizes->push_back(kPropagationNoiseSize);
+}
+
 void TagReprojectionFactor::useLandmarkBlock() {
   auto* sizes = mutable_parameter_block_sizes();
   landmark_block_ = static_cast<int>(sizes->size());
@@ -139,7 +146,8 @@ void TagReprojectionFactor::useLandmarkBlock() {
 
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
-  if (interpolation_ == Interpolation::kImuPropagated && anchor_.with_intrinsics) {
+  if (interpolation_ == Interpolation::kImuPropagated &&
+      (anchor_.with_intrinsics || noise_block_ >= 0)) {
     return evaluate<kStageDim + 9>(parameters, residuals, jacobians);
   }
   return evaluate<kStageDim>(parameters, residuals, jacobians);
@@ -237,13 +245,19 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
   // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
-  // With the IMU intrinsics: the anchor deltas' first-order change J_I (x_I - x_I0).
+  // The anchor deltas' change: with the IMU intrinsics their first-order change
+  // J_I (x_I - x_I0), plus the propagation noise.
   Eigen::Matrix<double, 9, 1> lin = Eigen::Matrix<double, 9, 1>::Zero();
   if constexpr (Dim > kStageDim) {
-    lin =
-        anchor_.J_intrinsics *
-        (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(parameters[n_blocks + 1]) -
-         anchor_.intrinsics0);
+    if (anchor_.with_intrinsics) {
+      lin = anchor_.J_intrinsics * (Eigen::Map<const Eigen::Matrix<double, kImuIntrinsicsSize, 1>>(
+                                        parameters[n_blocks + 1]) -
+                                    anchor_.intrinsics0);
+    }
+    if (noise_block_ >= 0) {
+      lin += Eigen::Map<const Eigen::Matrix<double, kPropagationNoiseSize, 1>>(
+          parameters[noise_block_]);
+    }
   }
   CameraPose<Dim> pose;
   if (shared_ == nullptr) {
@@ -281,11 +295,15 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   const Eigen::Matrix<double, 3, Dim>& dT = pose.dT;
   const double* intrinsics = parameters[n_blocks];
   const double inv_sigma = 1.0 / sigma_;
-  // d(anchor rotation perturbation) / d(IMU intrinsics): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d).
+  // d(anchor rotation perturbation) / d(its change): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d),
+  // chained with the intrinsics' J_I.
+  Eigen::Matrix3d right_jacobian = Eigen::Matrix3d::Identity();
   Eigen::Matrix<double, 3, kImuIntrinsicsSize> rotation_chain;
   if constexpr (Dim > kStageDim) {
-    rotation_chain = lie::rightJacobianSO3(lin.head<3>()) * anchor_.J_intrinsics.topRows<3>();
+    right_jacobian = lie::rightJacobianSO3(lin.head<3>());
+    rotation_chain = right_jacobian * anchor_.J_intrinsics.topRows<3>();
   }
+  double* J_noise = noise_block_ >= 0 && jacobians != nullptr ? jacobians[noise_block_] : nullptr;
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J_pc;
   Eigen::Matrix<double, 2, 8> J_k;
@@ -330,7 +348,13 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
         for (int j = 0; j < 8; ++j) out[j] = J_k(i, j) * inv_sigma;
       }
       if constexpr (Dim > kStageDim) {
-        if (jacobians[n_blocks + 1] != nullptr) {
+        if (J_noise != nullptr) {
+          Eigen::Map<Eigen::Matrix<double, 1, kPropagationNoiseSize>> out(
+              J_noise + kPropagationNoiseSize * r);
+          out.head<3>() = J.row(i).template segment<3>(kDeltaJet) * right_jacobian;
+          out.tail<6>() = J.row(i).template segment<6>(kDeltaJet + 3);
+        }
+        if (anchor_.with_intrinsics && jacobians[n_blocks + 1] != nullptr) {
           Eigen::Map<Eigen::Matrix<double, 1, kImuIntrinsicsSize>> out(jacobians[n_blocks + 1] +
                                                                        kImuIntrinsicsSize * r);
           out = J.row(i).template segment<3>(kDeltaJet) * rotation_chain +
