@@ -104,6 +104,8 @@ void MvisNodelet::onInit() {
     EstimatorOptions eo;
     eo.window_size = options_.window_size;
     eo.pixel_sigma_px = options_.pixel_sigma;
+    eo.huber_sigma = options_.huber_sigma;
+    eo.propagation_noise = options_.propagation_noise;
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
