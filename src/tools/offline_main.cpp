@@ -3,7 +3,7 @@
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
-//              [--propagation-noise] [--fej] [--hold SENSOR.QUANTITY]...
+//              [--propagation-noise] [--hold SENSOR.QUANTITY]...
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -33,7 +33,7 @@ int usage(const char* message) {
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
                "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
-               "                    [--fixed-imu-linearization] [--propagation-noise] [--fej]\n"
+               "                    [--fixed-imu-linearization] [--propagation-noise]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
@@ -58,8 +58,6 @@ int usage(const char* message) {
                "  --estimate-gravity-sensitivity  and their Tg\n"
                "  --fixed-imu-linearization  first order about the configured IMU intrinsics\n"
                "                   instead of re-integrating (for comparison)\n"
-               "  --fej            first-estimate Jacobians for what the prior holds (states,\n"
-               "                   tags, gravity)\n"
                "  --propagation-noise  a frame's IMU-propagated pose carries the readings'\n"
                "                   noise instead of being exact (for corners of ~0.05 px)\n"
                "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
@@ -88,7 +86,6 @@ int main(int argc, char** argv) {
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   double huber = mvis::EstimatorOptions{}.huber_sigma;
   bool propagation_noise = false;
-  bool first_estimate_jacobians = false;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
@@ -148,8 +145,6 @@ int main(int argc, char** argv) {
       estimate_gravity_sensitivity = true;
     } else if (arg == "--fixed-imu-linearization") {
       fixed_imu_linearization = true;
-    } else if (arg == "--fej") {
-      first_estimate_jacobians = true;
     } else if (arg == "--propagation-noise") {
       propagation_noise = true;
     } else if (arg == "--hold") {
@@ -186,7 +181,6 @@ int main(int argc, char** argv) {
   options.estimator.pixel_sigma_px = pixel_sigma;
   options.estimator.huber_sigma = huber;
   options.estimator.propagation_noise = propagation_noise;
-  options.estimator.first_estimate_jacobians = first_estimate_jacobians;
   options.estimator.window_size = window;
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;

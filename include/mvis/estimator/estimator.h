@@ -73,10 +73,6 @@ struct EstimatorOptions {
   // figure by more than the runs' spread, and it costs about 17% of the run (a block per frame
   // between states), hence off by default.
   bool propagation_noise = false;
-  // First-estimate Jacobians: once the marginalization prior holds a state, tag landmark or
-  // gravity, every factor's Jacobian in it is taken at the value the prior was linearized at
-  // (src/core/estimator/first_estimate_cost.h). The calibration keeps current Jacobians.
-  bool first_estimate_jacobians = false;
   int window_size = 4;  // states kept in the window (>= 3)
   // Solve after every n-th cam0 frame (states are still added, predicted by the IMU, and
   // marginalized at every frame): a budget for slow machines.

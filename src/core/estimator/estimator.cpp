@@ -96,7 +96,6 @@ void Estimator::Impl::newProblem() {
   prior.clear();
   landmarks.clear();
   landmark_ids.clear();
-  first_estimates.clear();
 }
 
 Status Estimator::Impl::withWarning(Status s) {

@@ -16,7 +16,6 @@
 #include <optional>
 #include <sstream>
 
-#include "first_estimate_cost.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/imu_correction.h"
@@ -281,12 +280,6 @@ struct Estimator::Impl {
     Eigen::VectorXd variance;
   };
   std::map<const double*, Hold> holds;
-  // First estimates of the blocks the marginalization prior holds
-  // (options.first_estimate_jacobians).
-  FirstEstimates first_estimates;
-  // Whether a block takes first-estimate Jacobians once in the prior: window states, their
-  // auxiliary states, tag landmarks, gravity.
-  bool takesFirstEstimate(const double* block) const;
   // Per inertial sensor: its readings corrected by its configured intrinsics (imu_correction.h),
   // or left raw (identity) when they are estimated.
   std::vector<ImuCorrection> imu_corrections;

@@ -117,7 +117,6 @@ void Estimator::Impl::removeLandmark(double* block) {
   if (id == landmark_ids.end()) return;
   landmarks.erase(id->second);
   landmark_ids.erase(id);
-  first_estimates.erase(block);
 }
 
 }  // namespace mvis

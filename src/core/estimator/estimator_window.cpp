@@ -5,24 +5,11 @@ namespace mvis {
 void Estimator::Impl::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
                                 std::vector<double*> blocks) {
   ResidualRecord r;
-  if (options.first_estimate_jacobians)
-    cost = new FirstEstimateCost(cost, blocks, &first_estimates);
   r.id = problem->AddResidualBlock(cost, loss, blocks);
   r.cost = cost;
   r.loss = loss;
   r.blocks = std::move(blocks);
   owner->residuals.push_back(std::move(r));
-}
-
-bool Estimator::Impl::takesFirstEstimate(const double* block) const {
-  if (block == gravity || landmark_ids.count(block)) return true;
-  for (const auto& s : states) {
-    if (block == s->pose || block == s->speed_bias) return true;
-    for (const auto& a : s->aux) {
-      if (a && block == a->x) return true;
-    }
-  }
-  return false;
 }
 
 void Estimator::Impl::addStateBlocks(State* s) {
@@ -407,10 +394,7 @@ void Estimator::Impl::marginalizeOldest() {
   // block's dependents walks a hash set, whose order (pointer values) would make results
   // differ from run to run in the last digits, and the window amplifies that.
   for (const auto& r : oldest->residuals) problem->RemoveResidualBlock(r.id);
-  for (double* block : leaving) {
-    problem->RemoveParameterBlock(block);
-    first_estimates.erase(block);
-  }
+  for (double* block : leaving) problem->RemoveParameterBlock(block);
   for (double* block : leaving_landmarks) removeLandmark(block);
   past.push_back(oldest->toEstimate());
   states.pop_front();
@@ -420,13 +404,6 @@ void Estimator::Impl::marginalizeOldest() {
   }
   // One residual block per row group: Ceres's J^T J of the dense prior is its largest cost
   // with many auxiliary sensors.
-  if (options.first_estimate_jacobians) {
-    // What the prior now holds keeps the value it was linearized at for every factor's Jacobian.
-    for (double* block : made.value()->parameterBlocks()) {
-      if (first_estimates.count(block) || !takesFirstEstimate(block)) continue;
-      first_estimates[block].assign(block, block + problem->ParameterBlockSize(block));
-    }
-  }
   for (auto& rows : made.value()->splitRows()) {
     ResidualRecord r;
     r.blocks = rows->parameterBlocks();
