@@ -85,9 +85,9 @@ struct EstimatorOptions {
   // Robust loss threshold [sigma units], 0: plain squares: Huber on a camera factor's whitened
   // squared norm (a frame's corners together; without a board each tag's, at huber_sigma /
   // sqrt(tags in the frame), which weighs a frame the same). At the default a
-  // frame of N > 4 corners counts like about 3 sqrt(N/2) of them, which stands in for the error
-  // its corners share (IMU-propagated frame poses carry no IMU noise); doc/results.md compares
-  // counting every corner (0).
+  // frame of N > 4 corners counts like about 3 sqrt(N/2) of them. Counting every corner (0) is
+  // better on fully excited motion but overconfident on degenerate motion, whose first batch
+  // then moves the unobservable directions further (doc/results.md).
   double huber_sigma = 3.0;
   bool estimate_extrinsics = true;    // camera-IMU T_C_I of every camera
   bool estimate_time_offsets = true;  // timeshift_cam_imu of every camera
