@@ -1,5 +1,6 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
+//              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
@@ -29,7 +30,7 @@ int usage(const char* message) {
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--window N]\n"
-               "                    [--max-iterations N] [--solve-every N]\n"
+               "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
                "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
@@ -48,6 +49,8 @@ int usage(const char* message) {
                "  --window N       states in the sliding window (default 4)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
                "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
+               "  --max-solve-time S  time budget per solve [s] as the nodelet has it (0.05);\n"
+               "                   default none, so that results do not depend on the load\n"
                "  --aux-model M    auxiliary IMU velocity as a state (velocity_state, default)\n"
                "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
@@ -86,6 +89,7 @@ int main(int argc, char** argv) {
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   double huber = mvis::EstimatorOptions{}.huber_sigma;
   bool propagation_noise = false;
+  double max_solve_time = 1e3;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
@@ -113,6 +117,12 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) return usage("--huber takes sigmas >= 0");
       huber = std::atof(v.c_str());
+    } else if (arg == "--max-solve-time") {
+      std::string v;
+      if (!value(&v) || !(std::atof(v.c_str()) > 0.0)) {
+        return usage("--max-solve-time takes seconds > 0");
+      }
+      max_solve_time = std::atof(v.c_str());
     } else if (arg == "--window") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 3) return usage("--window takes a state count >= 3");
@@ -185,8 +195,8 @@ int main(int argc, char** argv) {
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;
   // Offline there is no deadline: without the per-solve time budget, results do not depend on
-  // the machine's load.
-  options.estimator.max_solve_time_s = 1e3;
+  // the machine's load (unless --max-solve-time asks for the nodelet's).
+  options.estimator.max_solve_time_s = max_solve_time;
   options.estimator.init_solve_time_s = 1e3;
   options.estimator.aux_imu_model = aux_model == "rigid_velocity"
                                         ? mvis::AuxImuModel::kRigidVelocity

@@ -307,6 +307,67 @@ TEST(Marginalization, CholeskyPriorIsTriangularAndSplitsByBlock) {
   EXPECT_LT(std::abs(sum - whole), 1e-9 * whole);
 }
 
+// Marginalizing again: an earlier prior added through the information it keeps (addPrior) gives
+// the same prior as its rows added as a residual, away from its linearization point (where its
+// gradient has moved by H* dx), from its Cholesky form and from its eigen-decomposition form
+// (rank-deficient).
+TEST(Marginalization, AnEarlierPriorAddsThroughItsInformationAsThroughItsRows) {
+  for (const bool full_rank : {true, false}) {
+    SmallProblem s = makeSmallProblem();
+    const PoseManifold pose;
+    const ceres::SphereManifold<3> sphere;
+    auto ptr = [&](int b) { return s.blocks[b].data(); };
+    const std::unique_ptr<PosePriorFactor> pose_j_prior(PosePriorFactor::fromStd(
+        poseToSE3(ptr(2)), Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.05)));
+    Marginalizer first = smallMarginalizer(&s, pose, sphere);
+    if (full_rank) {
+      first.addResidual(pose_j_prior.get(), nullptr, {ptr(2)});
+      first.addResidual(s.sb_prior.get(), nullptr, {ptr(3)});
+    }
+    auto made = first.marginalize({ptr(0), ptr(1)});
+    ASSERT_TRUE(made.ok()) << made.status().message();
+    const MarginalizationFactor& prior = *made.value();
+    ASSERT_EQ(prior.information().rows(), 17);
+    // Away from x0.
+    Eigen::VectorXd dx(17);
+    for (int i = 0; i < 17; ++i) dx[i] = 2e-2 * std::sin(0.3 + i);
+    std::vector<double> tmp = s.blocks[2];
+    pose.Plus(tmp.data(), dx.data(), ptr(2));
+    for (int i = 0; i < 9; ++i) s.blocks[3][i] += dx[6 + i];
+    tmp = s.blocks[4];
+    sphere.Plus(tmp.data(), dx.data() + 15, ptr(4));
+    // Drop sb_j, keep pose_j and gravity, with a measurement on sb_j and gravity too.
+    const std::unique_ptr<ceres::NormalPrior> tie(new ceres::NormalPrior(
+        Eigen::MatrixXd::Identity(3, 3) * 5.0, Eigen::Vector3d(0.1, 0.2, -9.8)));
+    Eigen::MatrixXd rows[2];
+    Eigen::VectorXd residual[2];
+    for (int way = 0; way < 2; ++way) {
+      Marginalizer again;
+      again.setManifold(ptr(2), &pose);
+      again.setManifold(ptr(4), &sphere);
+      again.addResidual(tie.get(), nullptr, {ptr(4)});
+      if (way == 0) {
+        again.addResidual(&prior, nullptr, prior.parameterBlocks());
+      } else {
+        again.addPrior(&prior);
+      }
+      auto out = again.marginalize({ptr(3)});
+      ASSERT_TRUE(out.ok()) << out.status().message();
+      rows[way] = out.value()->J0().transpose() * out.value()->J0();
+      residual[way] = out.value()->J0().transpose() * out.value()->r0();
+    }
+    const Eigen::VectorXd inv_sqrt_d = rows[0].diagonal().cwiseSqrt().cwiseInverse();
+    EXPECT_GT((residual[0]).norm(), 1.0) << full_rank;  // away from x0: a gradient
+    EXPECT_LT((inv_sqrt_d.asDiagonal() * (rows[1] - rows[0]) * inv_sqrt_d.asDiagonal())
+                  .cwiseAbs()
+                  .maxCoeff(),
+              1e-10)
+        << full_rank;
+    EXPECT_LT((inv_sqrt_d.asDiagonal() * (residual[1] - residual[0])).cwiseAbs().maxCoeff(), 1e-9)
+        << full_rank;
+  }
+}
+
 TEST(PosePriorFactor, JacobiansMatchCentralDifferences) {
   const std::unique_ptr<PosePriorFactor> f(PosePriorFactor::fromStd(
       SE3(lie::expQuat(Eigen::Vector3d(0.3, 0.1, -0.2)), Eigen::Vector3d(1, 2, 3)),

@@ -61,6 +61,12 @@ class Marginalizer {
   // only used inside marginalize().
   void addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
                    std::vector<double*> blocks, bool projected = false);
+  // An earlier prior (as marginalize() made it, not split), added through the information it
+  // stores: H += M^T H* M, g += M^T (g* + H* dx), with dx = Minus(x, x0) and M per block its
+  // MinusJacobian at x times this marginalizer's PlusJacobian there (as its own Evaluate has it;
+  // the identity for the manifolds here). The same as adding its rows as a residual, without the
+  // cube of its size that their products cost. Not owned; only used inside marginalize().
+  void addPrior(const MarginalizationFactor* prior);
   // Linearizes everything added and makes the prior on every block that is not in `drop`.
   // Fails if evaluating a residual fails or nothing is kept.
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(const std::set<const double*>& drop,
@@ -88,6 +94,7 @@ class Marginalizer {
   StatusOr<Reduced> reduce(const std::set<const double*>& drop, double eps) const;
 
   std::vector<Residual> residuals_;
+  std::vector<const MarginalizationFactor*> priors_;
   std::map<const double*, const ceres::Manifold*> manifolds_;
   std::map<const double*, Eigen::MatrixXd> uninformative_;
 };
@@ -115,11 +122,21 @@ class MarginalizationFactor final : public ceres::CostFunction {
   const std::vector<Block>& blocks() const { return blocks_; }
   const Eigen::MatrixXd& J0() const { return J0_; }
   const Eigen::VectorXd& r0() const { return r0_; }
+  // Its information at x0, H* = J0^T J0 and g* = J0^T r0 (tangent coordinates in block order),
+  // kept by Marginalizer::marginalize for Marginalizer::addPrior; empty otherwise.
+  const Eigen::MatrixXd& information() const { return H_; }
+  const Eigen::VectorXd& gradient() const { return g_; }
+  void setInformation(Eigen::MatrixXd H, Eigen::VectorXd g) {
+    H_ = std::move(H);
+    g_ = std::move(g);
+  }
 
  private:
   std::vector<Block> blocks_;
   Eigen::MatrixXd J0_;
   Eigen::VectorXd r0_;
+  Eigen::MatrixXd H_;
+  Eigen::VectorXd g_;
 };
 
 }  // namespace mvis

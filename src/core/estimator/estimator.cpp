@@ -94,6 +94,7 @@ void Estimator::Impl::newProblem() {
   po.enable_fast_removal = true;
   problem = std::make_unique<ceres::Problem>(po);
   prior.clear();
+  prior_whole.reset();
   landmarks.clear();
   landmark_ids.clear();
 }

@@ -231,6 +231,9 @@ struct Estimator::Impl {
   std::deque<std::unique_ptr<State>> states;
   // The marginalization prior, if any: its row groups (MarginalizationFactor::splitRows).
   std::vector<ResidualRecord> prior;
+  // The prior as made, before its rows were split into `prior`: the next marginalization adds it
+  // through the information it keeps (Marginalizer::addPrior).
+  std::unique_ptr<MarginalizationFactor> prior_whole;
   std::deque<ImuMeasurement> imu;
   std::deque<TagFrame> base_frames;
   std::vector<std::deque<TagFrame>> other_frames;  // per camera (index 0 unused)

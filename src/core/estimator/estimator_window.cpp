@@ -362,16 +362,15 @@ SolveSummary Estimator::Impl::windowSummary() const {
 void Estimator::Impl::marginalizeOldest() {
   State* oldest = states.front().get();
   Marginalizer m;
-  std::vector<const ResidualRecord*> records;
-  for (const auto& r : oldest->residuals) records.push_back(&r);
-  const std::size_t measurements = records.size();
-  for (const auto& r : prior) records.push_back(&r);
-  for (std::size_t i = 0; i < records.size(); ++i) {
-    const ResidualRecord* r = records[i];
-    for (double* block : r->blocks) m.setManifold(block, baseManifold(block));
+  for (const auto& r : oldest->residuals) {
+    for (double* block : r.blocks) m.setManifold(block, baseManifold(block));
     // The measurements leaving add nothing along what they cannot observe; the old prior
     // keeps what earlier motion told.
-    m.addResidual(r->cost, r->loss, r->blocks, i < measurements);
+    m.addResidual(r.cost, r.loss, r.blocks, true);
+  }
+  if (prior_whole) {
+    for (double* block : prior_whole->parameterBlocks()) m.setManifold(block, baseManifold(block));
+    m.addPrior(prior_whole.get());
   }
   for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
   std::vector<double*> leaving = {oldest->pose, oldest->speed_bias};
@@ -390,6 +389,7 @@ void Estimator::Impl::marginalizeOldest() {
   // Remove the old prior and the state (with every residual on it).
   for (const auto& r : prior) problem->RemoveResidualBlock(r.id);
   prior.clear();
+  prior_whole.reset();
   // Residual blocks one by one in their recorded order: Ceres's own removal of a parameter
   // block's dependents walks a hash set, whose order (pointer values) would make results
   // differ from run to run in the last digits, and the window amplifies that.
@@ -411,6 +411,7 @@ void Estimator::Impl::marginalizeOldest() {
     r.id = problem->AddResidualBlock(rows.release(), nullptr, r.blocks);
     prior.push_back(std::move(r));
   }
+  prior_whole = std::move(made).value();
 }
 
 void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point start) {

@@ -92,24 +92,31 @@ void Marginalizer::addResidual(const ceres::CostFunction* cost, const ceres::Los
   residuals_.push_back({cost, loss, std::move(blocks), projected});
 }
 
+void Marginalizer::addPrior(const MarginalizationFactor* prior) { priors_.push_back(prior); }
+
 StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double*>& drop,
                                                      double eps) const {
   // Every block once: dropped ones first, then kept ones, in order of first appearance.
   Reduced out;
   std::vector<Entry>& entries = out.entries;
   std::map<const double*, int> index;
+  const auto enter = [&](int pass, double* address, int ambient) {
+    const bool dropped = drop.count(address) > 0;
+    if ((pass == 0) != dropped || index.count(address)) return;
+    const auto m = manifolds_.find(address);
+    const ceres::Manifold* manifold = m == manifolds_.end() ? nullptr : m->second;
+    index[address] = static_cast<int>(entries.size());
+    entries.push_back({address, ambient, tangentSize(manifold, ambient), 0, manifold});
+  };
   for (int pass = 0; pass < 2; ++pass) {
     for (const auto& residual : residuals_) {
       const auto& sizes = residual.cost->parameter_block_sizes();
       for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
-        double* address = residual.blocks[b];
-        const bool dropped = drop.count(address) > 0;
-        if ((pass == 0) != dropped || index.count(address)) continue;
-        const auto m = manifolds_.find(address);
-        const ceres::Manifold* manifold = m == manifolds_.end() ? nullptr : m->second;
-        index[address] = static_cast<int>(entries.size());
-        entries.push_back({address, sizes[b], tangentSize(manifold, sizes[b]), 0, manifold});
+        enter(pass, residual.blocks[b], sizes[b]);
       }
+    }
+    for (const MarginalizationFactor* prior : priors_) {
+      for (const auto& b : prior->blocks()) enter(pass, b.address, b.ambient);
     }
     if (pass == 0) out.dropped = entries.size();
   }
@@ -180,6 +187,60 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       }
     }
   }
+  for (const MarginalizationFactor* prior : priors_) {
+    // Per block: dx = Minus(x, x0) and M = d Minus(x Plus delta, x0) / d delta (the prior's
+    // MinusJacobian in its own manifold times this entry's PlusJacobian).
+    const auto& blocks = prior->blocks();
+    const Eigen::MatrixXd& Hs = prior->information();
+    const Eigen::VectorXd& gs = prior->gradient();
+    std::vector<int> offsets;
+    int total = 0;
+    for (const auto& b : blocks) {
+      offsets.push_back(total);
+      total += b.tangent;
+    }
+    if (Hs.rows() != total || gs.size() != total) {
+      return Status::Error("a prior without its information cannot be marginalized again");
+    }
+    Eigen::VectorXd dx(total);
+    std::vector<Eigen::MatrixXd> M(blocks.size());
+    std::vector<const Entry*> at(blocks.size());
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const auto& b = blocks[i];
+      const Entry& e = entries[index.at(b.address)];
+      at[i] = &e;
+      Eigen::MatrixXd minus = Eigen::MatrixXd::Identity(b.tangent, b.ambient);
+      if (b.manifold != nullptr) {
+        if (!b.manifold->Minus(b.address, b.x0.data(), dx.data() + offsets[i])) {
+          return Status::Error("a prior's block failed its manifold's Minus");
+        }
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> mj(b.tangent,
+                                                                                  b.ambient);
+        b.manifold->MinusJacobian(b.address, mj.data());
+        minus = mj;
+      } else {
+        for (int j = 0; j < b.ambient; ++j) dx[offsets[i] + j] = b.address[j] - b.x0[j];
+      }
+      Eigen::MatrixXd plus = Eigen::MatrixXd::Identity(e.ambient, e.tangent);
+      if (e.manifold != nullptr) {
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> pj(e.ambient,
+                                                                                  e.tangent);
+        e.manifold->PlusJacobian(e.address, pj.data());
+        plus = pj;
+      }
+      M[i] = minus * plus;
+    }
+    const Eigen::VectorXd grad = gs + Hs * dx;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const int ti = blocks[i].tangent;
+      g.segment(at[i]->offset, at[i]->tangent).noalias() +=
+          M[i].transpose() * grad.segment(offsets[i], ti);
+      for (std::size_t j = 0; j < blocks.size(); ++j) {
+        H.block(at[i]->offset, at[j]->offset, at[i]->tangent, at[j]->tangent).noalias() +=
+            M[i].transpose() * Hs.block(offsets[i], offsets[j], ti, blocks[j].tangent) * M[j];
+      }
+    }
+  }
   if (any_projected) {
     // The projected residuals forget the uninformative directions U: the components along U
     // are marginalized out of their (Hp, gp), which takes both the information along U and the
@@ -244,7 +305,10 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
     Eigen::MatrixXd J0 = c.L.transpose() * c.sqrt_d.asDiagonal();
     Eigen::VectorXd r0 = c.sqrt_d.cwiseInverse().asDiagonal() * gs;
     c.L.triangularView<Eigen::Lower>().solveInPlace(r0);
-    return std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+    auto made =
+        std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+    made->setInformation(Hs, gs);  // J0^T J0 = Hs, J0^T r0 = gs
+    return made;
   }
   // Otherwise J0 = diag(sqrt(l)) V^T D^1/2 over the scaled eigenvalues l > eps; r0 solves
   // J0^T r0 = gs.
@@ -260,7 +324,13 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
     J0.row(i) = s * v.transpose() * es.sqrt_d.asDiagonal();
     r0[i] = v.dot(gs_scaled) / s;
   }
-  return std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+  // What it keeps of Hs and gs (the eigenvalues it dropped are not in J0).
+  Eigen::MatrixXd H0 = J0.transpose() * J0;
+  Eigen::VectorXd g0 = J0.transpose() * r0;
+  auto made =
+      std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+  made->setInformation(std::move(H0), std::move(g0));
+  return made;
 }
 
 MarginalizationFactor::MarginalizationFactor(std::vector<Block> blocks, Eigen::MatrixXd J0,
