@@ -362,11 +362,12 @@ struct Estimator::Impl {
 
   void addCalibrationBlocks();
 
-  // A frame's camera factors, owned by window state k (or its successor): one over its board
-  // corners, or without a board one per tag with the tag's landmark block.
   // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
   // when the covariance is not positive definite.
   static ceres::CostFunction* propagationNoisePrior(const Eigen::Matrix<double, 9, 9>& covariance);
+  // A frame's camera factors, owned by window state k (or its successor): one over its board
+  // corners, or without a board one per tag with the tag's landmark block (and with
+  // options.propagation_noise the prior of its propagation-noise block).
   struct FramePiece {
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;

@@ -188,8 +188,8 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
     }
   }
   for (const MarginalizationFactor* prior : priors_) {
-    // Per block: dx = Minus(x, x0) and M = d Minus(x Plus delta, x0) / d delta (the prior's
-    // MinusJacobian in its own manifold times this entry's PlusJacobian).
+    // Per block: dx = Minus(x, x0) and M, the prior's MinusJacobian at x times this entry's
+    // PlusJacobian, as the prior's own Evaluate and addResidual would have them.
     const auto& blocks = prior->blocks();
     const Eigen::MatrixXd& Hs = prior->information();
     const Eigen::VectorXd& gs = prior->gradient();
