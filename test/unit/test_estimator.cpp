@@ -122,23 +122,19 @@ TEST(Estimator, NoiseFreeDataLeaveNoBias) {
   const auto estimator = runFrom(run.guess, run, options);
   ASSERT_TRUE(estimator);
   const Rig estimate = estimator->calibration();
-  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
-    const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
+  const auto expectUnbiased = [](const std::string& name, const CameraErrors& e) {
     std::printf("%s noise-free: rotation %.5f deg, translation %.4f mm, time offset %.5f ms\n",
-                run.truth.cameras[c].name.c_str(), e.rotation_deg, e.translation_mm,
-                e.time_offset_ms);
-    EXPECT_LT(e.rotation_deg, 0.005) << run.truth.cameras[c].name;
-    EXPECT_LT(e.translation_mm, 0.5) << run.truth.cameras[c].name;
-    EXPECT_LT(e.time_offset_ms, 0.01) << run.truth.cameras[c].name;
+                name.c_str(), e.rotation_deg, e.translation_mm, e.time_offset_ms);
+    EXPECT_LT(e.rotation_deg, 0.005) << name;
+    EXPECT_LT(e.translation_mm, 0.5) << name;
+    EXPECT_LT(e.time_offset_ms, 0.01) << name;
+  };
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    expectUnbiased(run.truth.cameras[c].name, errors(run.truth.cameras[c], estimate.cameras[c]));
   }
   for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
-    const CameraErrors e = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
-    std::printf("%s noise-free: rotation %.5f deg, translation %.4f mm, time offset %.5f ms\n",
-                run.truth.inertial[i].name.c_str(), e.rotation_deg, e.translation_mm,
-                e.time_offset_ms);
-    EXPECT_LT(e.rotation_deg, 0.005) << run.truth.inertial[i].name;
-    EXPECT_LT(e.translation_mm, 0.5) << run.truth.inertial[i].name;
-    EXPECT_LT(e.time_offset_ms, 0.01) << run.truth.inertial[i].name;
+    expectUnbiased(run.truth.inertial[i].name,
+                   inertialErrors(run.truth.inertial[i], estimate.inertial[i]));
   }
   const auto trajectory = estimator->trajectory();
   std::vector<EstimatorState> converged;

@@ -146,6 +146,14 @@ SmallProblem makeSmallProblem() {
   return s;
 }
 
+// A prior on the second state's pose: with it (and one on its speed and biases) the Schur
+// complement is positive definite.
+std::unique_ptr<PosePriorFactor> secondPosePrior(SmallProblem* s) {
+  return std::unique_ptr<PosePriorFactor>(
+      PosePriorFactor::fromStd(poseToSE3(s->blocks[2].data()), Eigen::Vector3d::Constant(0.02),
+                               Eigen::Vector3d::Constant(0.05)));
+}
+
 // The small problem's factors around the first state, ready to marginalize it.
 Marginalizer smallMarginalizer(SmallProblem* s, const PoseManifold& pose,
                                const ceres::SphereManifold<3>& sphere) {
@@ -233,8 +241,7 @@ TEST(Marginalization, CholeskyPriorIsTriangularAndSplitsByBlock) {
   const PoseManifold pose;
   const ceres::SphereManifold<3> sphere;
   auto ptr = [&](int b) { return s.blocks[b].data(); };
-  const std::unique_ptr<PosePriorFactor> pose_j_prior(PosePriorFactor::fromStd(
-      poseToSE3(ptr(2)), Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.05)));
+  const std::unique_ptr<PosePriorFactor> pose_j_prior = secondPosePrior(&s);
 
   Marginalizer marginalizer = smallMarginalizer(&s, pose, sphere);
   marginalizer.addResidual(pose_j_prior.get(), nullptr, {ptr(2)});
@@ -317,8 +324,7 @@ TEST(Marginalization, AnEarlierPriorAddsThroughItsInformationAsThroughItsRows) {
     const PoseManifold pose;
     const ceres::SphereManifold<3> sphere;
     auto ptr = [&](int b) { return s.blocks[b].data(); };
-    const std::unique_ptr<PosePriorFactor> pose_j_prior(PosePriorFactor::fromStd(
-        poseToSE3(ptr(2)), Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.05)));
+    const std::unique_ptr<PosePriorFactor> pose_j_prior = secondPosePrior(&s);
     Marginalizer first = smallMarginalizer(&s, pose, sphere);
     if (full_rank) {
       first.addResidual(pose_j_prior.get(), nullptr, {ptr(2)});

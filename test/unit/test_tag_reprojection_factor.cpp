@@ -234,11 +234,7 @@ TEST(TagReprojectionFactor, ImuPropagatedWithPropagationNoise) {
                                              intrinsicsBlock(s.rig.cameras[2])};
   const auto residualsOf = [](const TagReprojectionFactor& f,
                               const std::vector<std::vector<double>>& b) {
-    std::vector<const double*> ptrs;
-    for (const auto& x : b) ptrs.push_back(x.data());
-    Eigen::VectorXd r(f.num_residuals());
-    EXPECT_TRUE(f.Evaluate(ptrs.data(), r.data(), nullptr));
-    return r;
+    return test::evaluateResiduals(f, b);
   };
   std::vector<std::vector<double>> with_noise = blocks;
   with_noise.push_back(std::vector<double>(kPropagationNoiseSize, 0.0));
