@@ -362,6 +362,9 @@ struct Estimator::Impl {
 
   void addCalibrationBlocks();
 
+  // After the first batch: moves the cameras' common position along what the batch's motion
+  // left unobservable back to the configured cameras' (estimator_startup.cpp); whether it did.
+  bool recentreUnobservedShift(const std::vector<SE3>& configured);
   // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
   // when the covariance is not positive definite.
   static ceres::CostFunction* propagationNoisePrior(const Eigen::Matrix<double, 9, 9>& covariance);

@@ -233,12 +233,60 @@ void Estimator::Impl::initialize() {
       held_for_batch.push_back(b);
     }
   }
+  std::vector<SE3> configured;
+  for (auto& cb : cameras) configured.push_back(poseToSE3(cb->extrinsic));
   const auto start = Clock::now();
-  SolveSummary summary = solve(std::max(30, options.max_iterations), options.init_solve_time_s);
+  const int batch_iterations = std::max(30, options.max_iterations);
+  SolveSummary summary = solve(batch_iterations, options.init_solve_time_s);
+  // What the batch's motion cannot observe, held from here on (the window checks before every
+  // solve; holding it in this first solve already would hold each camera at its own configured
+  // value, and those disagree with what the board shows of their relative positions).
+  checkObservability();
+  if (recentreUnobservedShift(configured)) {
+    const SolveSummary again = solve(batch_iterations, options.init_solve_time_s);
+    summary.iterations += again.iterations;
+    summary.solve_s += again.solve_s;
+    summary.cost = again.cost;
+    summary.usable = again.usable;
+  }
   for (double* b : held_for_batch) problem->SetParameterBlockVariable(b);
   status_text = clock_message.empty() ? "running" : "running; " + clock_message;
   while (static_cast<int>(states.size()) > options.window_size) marginalizeOldest();
   publish(summary, start);
+}
+
+bool Estimator::Impl::recentreUnobservedShift(const std::vector<SE3>& configured) {
+  // Rotating about one axis (or not at all), the cameras' translations can all move together
+  // along the axis (or anyhow) against imu0 without any reading changing: one common shift of
+  // their positions in {I}, which the check holds per camera. The batch leaves that shift
+  // wherever its linearization took it (12-15 cm counting every corner on a yaw-only start, 3 cm
+  // at the default), and the window would keep it there. It goes back to the configured cameras'
+  // mean; where they sit relative to each other, which the board does show, stays as solved.
+  Eigen::MatrixXd A;  // the held directions of the cameras' positions in {I} (orthonormal)
+  std::vector<std::size_t> held;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const auto u = uninformative.find(cameras[c]->extrinsic);
+    if (u == uninformative.end()) continue;
+    // Translation rows of the held directions (p_C_I in {C}) turned to {I}.
+    const Eigen::MatrixXd D = poseRotation(cameras[c]->extrinsic).toRotationMatrix().transpose() *
+                              u->second.bottomRows<3>();
+    if (D.cols() == 0 || D.colwise().norm().minCoeff() < 0.99) continue;  // not translations
+    if (A.size() == 0) A = D;
+    held.push_back(c);
+  }
+  if (held.empty()) return false;
+  Eigen::VectorXd shift = Eigen::VectorXd::Zero(A.cols());
+  for (std::size_t c : held) {
+    const SE3 T = poseToSE3(cameras[c]->extrinsic);
+    const Eigen::Vector3d p_I_C = -(T.q.conjugate() * T.p);
+    const Eigen::Vector3d p_I_C0 = -(configured[c].q.conjugate() * configured[c].p);
+    shift += A.transpose() * (p_I_C - p_I_C0) / static_cast<double>(held.size());
+  }
+  for (std::size_t c : held) {
+    double* e = cameras[c]->extrinsic;
+    Eigen::Map<Eigen::Vector3d>(e + 4) += poseRotation(e) * (A * shift);
+  }
+  return true;
 }
 
 }  // namespace mvis
