@@ -106,6 +106,7 @@ void MvisNodelet::onInit() {
     eo.pixel_sigma_px = options_.pixel_sigma;
     eo.huber_sigma = options_.huber_sigma;
     eo.propagation_noise = options_.propagation_noise;
+    eo.min_tags = options_.min_tags;
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
@@ -319,6 +320,7 @@ void MvisNodelet::publishDiagnostics() {
     add("resets", std::to_string(c.resets));
     add("frames_dropped", std::to_string(c.frames_too_old + c.frames_too_close +
                                          c.frames_out_of_order + c.frames_in_imu_gap));
+    add("frames_too_few_tags", std::to_string(c.frames_too_few_tags));
     add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
     add("imu_gaps", std::to_string(c.imu_gaps));
     add("clock_corrections", std::to_string(c.clock_corrections));

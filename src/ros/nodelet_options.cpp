@@ -18,6 +18,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
   nh.param("huber_sigma", o.huber_sigma, o.huber_sigma);
   nh.param("propagation_noise", o.propagation_noise, o.propagation_noise);
+  nh.param("min_tags", o.min_tags, o.min_tags);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
   nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
@@ -66,6 +67,7 @@ std::string NodeletOptions::validate() const {
   if (!(observability_horizon_s > 0.0)) return "parameter ~observability_horizon must be positive";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
   if (!(huber_sigma >= 0.0)) return "parameter ~huber_sigma must be >= 0 (0: no robust loss)";
+  if (min_tags < 1) return "parameter ~min_tags must be >= 1";
   if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
     return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +
            aux_imu_model + "'";

@@ -24,6 +24,7 @@ struct NodeletOptions {
   double pixel_sigma = 1.0;                         // [px] corner noise
   double huber_sigma = 3.0;           // [sigma] camera factors' robust loss, 0: none
   bool propagation_noise = false;     // frames between states carry the IMU's noise
+  int min_tags = 2;                   // tags a frame needs with a board (1 without)
   bool estimate_extrinsics = true;                  // camera-IMU extrinsics
   bool estimate_time_offsets = true;                // camera time offsets
   bool estimate_aux_extrinsics = true;              // T_i_b of aux IMUs (rotation of gyroscopes)
