@@ -1,5 +1,5 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
-//              [--pixel-sigma PX] [--window N] [--max-iterations N] [--solve-every N]
+//              [--pixel-sigma PX] [--huber S] [--window N] [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]

@@ -232,21 +232,17 @@ TEST(TagReprojectionFactor, ImuPropagatedWithPropagationNoise) {
                                              poseBlock(s.rig.cameras[2].T_cam_imu),
                                              {0.012},
                                              intrinsicsBlock(s.rig.cameras[2])};
-  const auto residualsOf = [](const TagReprojectionFactor& f,
-                              const std::vector<std::vector<double>>& b) {
-    return test::evaluateResiduals(f, b);
-  };
   std::vector<std::vector<double>> with_noise = blocks;
   with_noise.push_back(std::vector<double>(kPropagationNoiseSize, 0.0));
-  const Eigen::VectorXd r_plain = residualsOf(*plain, blocks);
-  EXPECT_LT((residualsOf(*noisy, with_noise) - r_plain).cwiseAbs().maxCoeff(), 1e-12);
+  const Eigen::VectorXd r_plain = test::evaluateResiduals(*plain, blocks);
+  EXPECT_LT((test::evaluateResiduals(*noisy, with_noise) - r_plain).cwiseAbs().maxCoeff(), 1e-12);
   // n_p = 2 mm: as if p_k had moved by R_k n_p; and it does move the corners (~1 px).
   const Eigen::Vector3d n_p(0.002, -0.001, 0.0015);
   for (int i = 0; i < 3; ++i) with_noise.back()[3 + i] = n_p[i];
   std::vector<std::vector<double>> moved = blocks;
   Eigen::Map<Eigen::Vector3d>(moved[0].data() + 4) += sk.T_G_I.q * n_p;
-  const Eigen::VectorXd r_noise = residualsOf(*noisy, with_noise);
-  EXPECT_LT((r_noise - residualsOf(*plain, moved)).cwiseAbs().maxCoeff(), 1e-9);
+  const Eigen::VectorXd r_noise = test::evaluateResiduals(*noisy, with_noise);
+  EXPECT_LT((r_noise - test::evaluateResiduals(*plain, moved)).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_GT((r_noise - r_plain).cwiseAbs().maxCoeff(), 1.0);  // whitened: 0.5 px
   with_noise.back() = {2e-3, -1e-3, 3e-3, 0.002, -0.001, 0.0015, 0.01, -0.02, 0.005};
   const PoseManifold pose;

@@ -32,7 +32,7 @@
 //     Without it a frame between states would take the propagation as exact: its corners would
 //     know state k's pose better than the readings do, and the time offsets their share of it
 //     (with 0.05 px corners the time offsets' std came out below what the base IMU's noise
-//     allows along the motion, the floor of scripts/mvis_evaluation.py's time_offset_floor).
+//     allows along the motion, evaluation.h's timeOffsetFloor).
 // A corner p_G is then seen at
 //   p_C = R_C_I R(t)^T (p_G - p(t)) + p_C_I
 //   z = pi(k, d, p_C) + n,  n ~ N(0, sigma^2 I2)

@@ -92,11 +92,11 @@ struct Camera {
   std::optional<CameraCalibrationStd> std;
 };
 
-// The tag board of aprilgrid.yaml (Kalibr's keys plus tagFamily).
 // Corner c (0 bottom-left, 1 bottom-right, 2 top-right, 3 top-left) of a tag of side `side` [m]
 // in the tag's own frame: corner 0 at the origin, x along its bottom edge, z out of its face.
 Eigen::Vector3d tagCorner(int c, double side);
 
+// The tag board of aprilgrid.yaml (Kalibr's keys plus tagFamily).
 struct AprilGrid {
   int tag_cols = 0;
   int tag_rows = 0;

@@ -22,9 +22,9 @@ struct NodeletOptions {
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 4;                              // states in the sliding window
   double pixel_sigma = 1.0;                         // [px] corner noise
-  double huber_sigma = 3.0;           // [sigma] camera factors' robust loss, 0: none
-  bool propagation_noise = false;     // frames between states carry the IMU's noise
-  int min_tags = 2;                   // tags a frame needs with a board (1 without)
+  double huber_sigma = 3.0;                         // [sigma] camera factors' robust loss, 0: none
+  bool propagation_noise = false;                   // frames between states carry the IMU's noise
+  int min_tags = 2;                                 // tags a frame needs with a board (1 without)
   bool estimate_extrinsics = true;                  // camera-IMU extrinsics
   bool estimate_time_offsets = true;                // camera time offsets
   bool estimate_aux_extrinsics = true;              // T_i_b of aux IMUs (rotation of gyroscopes)

@@ -493,9 +493,9 @@ struct Estimator::Impl {
   // IMU frame with the extrinsic guess, is matched against the gyroscope over offsets within
   // +-kAlignRange; a clear best match replaces the configured offset.
   static constexpr TimeNs kAlignSpanNs = 1500000000;  // 1.5 s of board poses
-  // Without a board: the initial batch's span.
-  static constexpr TimeNs kLandmarkBatchNs = 4000000000;
-  static constexpr double kAlignRange = 0.3;  // [s]
+  static constexpr double kAlignRange = 0.3;          // [s]
+  // Without a board: the first batch's span (it places every tag from the motion).
+  static constexpr TimeNs kLandmarkBatchNs = 4000000000;  // 4 s
 
   void recordBoardRotation(std::size_t c, TimeNs stamp, const SE3& T_G_C);
 
