@@ -4,7 +4,7 @@
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
-//              [--propagation-noise] [--hold SENSOR.QUANTITY]...
+//              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -35,6 +35,7 @@ int usage(const char* message) {
                "                    [--observability-ratio R] [--estimate-intrinsics]\n"
                "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
                "                    [--fixed-imu-linearization] [--propagation-noise]\n"
+               "                    [--imu-step S]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
@@ -63,6 +64,8 @@ int usage(const char* message) {
                "                   instead of re-integrating (for comparison)\n"
                "  --propagation-noise  a frame's IMU-propagated pose carries the readings'\n"
                "                   noise instead of being exact (for corners of ~0.05 px)\n"
+               "  --imu-step S     inertial readings integrated in steps of at most S [s],\n"
+               "                   cubic in between (default 0.0025; 0: as they come)\n"
                "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
                "                   intrinsics, gravity_sensitivity) at its configured value;\n"
                "                   repeatable\n",
@@ -89,6 +92,7 @@ int main(int argc, char** argv) {
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   double huber = mvis::EstimatorOptions{}.huber_sigma;
   bool propagation_noise = false;
+  double imu_step = mvis::EstimatorOptions{}.imu_integration_step_s;
   double max_solve_time = 1e3;
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
@@ -155,6 +159,11 @@ int main(int argc, char** argv) {
       estimate_gravity_sensitivity = true;
     } else if (arg == "--fixed-imu-linearization") {
       fixed_imu_linearization = true;
+    } else if (arg == "--imu-step") {
+      std::string v;
+      if (!value(&v) || !(std::atof(v.c_str()) >= 0.0))
+        return usage("--imu-step takes seconds >= 0");
+      imu_step = std::atof(v.c_str());
     } else if (arg == "--propagation-noise") {
       propagation_noise = true;
     } else if (arg == "--hold") {
@@ -191,6 +200,7 @@ int main(int argc, char** argv) {
   options.estimator.pixel_sigma_px = pixel_sigma;
   options.estimator.huber_sigma = huber;
   options.estimator.propagation_noise = propagation_noise;
+  options.estimator.imu_integration_step_s = imu_step;
   options.estimator.window_size = window;
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;

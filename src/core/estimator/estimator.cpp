@@ -52,6 +52,8 @@ Status validate(const EstimatorOptions& o) {
   if (o.threads < 1) return bad("threads", "must be at least 1");
   if (!(o.pixel_sigma_px > 0.0)) return bad("pixel_sigma_px", "must be positive");
   if (!(o.huber_sigma >= 0.0)) return bad("huber_sigma", "must be zero or positive");
+  if (!(o.imu_integration_step_s >= 0.0))
+    return bad("imu_integration_step_s", "must be zero (off) or positive");
   if (o.init_frames < 3) return bad("init_frames", "must be at least 3");
   if (o.min_tags < 1) return bad("min_tags", "must be at least 1");
   if (!(o.gravity_m_s2 > 0.0)) return bad("gravity_m_s2", "must be positive");
@@ -194,6 +196,12 @@ void Estimator::Impl::process() {
     const TagFrame& frame = base_frames.front();
     const TimeNs t = frame.stamp_ns + timeOffsetNs(0);
     if (imu.empty() || imu.back().stamp_ns < t) return;  // wait for the IMU to pass t
+    // and, for the cubic through the readings around t (readingIn), for the one after that
+    // unless a gap follows t.
+    const std::size_t n = imu.size();
+    if (n > 1 && imu[n - 2].stamp_ns < t &&
+        imu.back().stamp_ns - imu[n - 2].stamp_ns <= integrationIntervalNs(0))
+      return;
     if (imu.front().stamp_ns > t || (!states.empty() && t <= states.back()->t)) {
       ++counters.frames_too_old;
       base_frames.pop_front();
@@ -232,33 +240,23 @@ void Estimator::Impl::process() {
   }
 }
 
-namespace estimator_internal {
-
-ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t) {
-  auto it = std::lower_bound(buffer.begin(), buffer.end(), t,
-                             [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
-  if (it == buffer.end()) return buffer.back();
-  if (it->stamp_ns == t || it == buffer.begin()) return *it;
-  return interpolateMeasurement(*(it - 1), *it, t);
+ImuMeasurement Estimator::Impl::readingAt(TimeNs t) const {
+  return readingIn(imu, t, integrationIntervalNs(0));
 }
-
-std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
-                                            TimeNs b) {
-  std::vector<ImuMeasurement> out;
-  out.push_back(readingIn(buffer, a));
-  auto it = std::upper_bound(buffer.begin(), buffer.end(), a,
-                             [](TimeNs s, const ImuMeasurement& m) { return s < m.stamp_ns; });
-  for (; it != buffer.end() && it->stamp_ns < b; ++it) out.push_back(*it);
-  out.push_back(readingIn(buffer, b));
-  return out;
-}
-
-}  // namespace estimator_internal
-
-ImuMeasurement Estimator::Impl::readingAt(TimeNs t) const { return readingIn(imu, t); }
 
 std::vector<ImuMeasurement> Estimator::Impl::imuBetween(TimeNs a, TimeNs b) const {
   return readingsBetween(imu, a, b);
+}
+
+std::vector<ImuMeasurement> Estimator::Impl::imuToIntegrate(TimeNs a, TimeNs b) const {
+  return readingsBetween(imu, a, b, fromSeconds(options.imu_integration_step_s),
+                         integrationIntervalNs(0));
+}
+
+TimeNs Estimator::Impl::integrationIntervalNs(std::size_t sensor) const {
+  const double rate = rig.inertial[sensor].update_rate;
+  if (!(options.imu_integration_step_s > 0.0) || !(rate > 0.0)) return 0;
+  return fromSeconds(2.5 / rate);
 }
 
 std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrate(TimeNs a, TimeNs b,
@@ -266,7 +264,7 @@ std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrate(TimeNs a, TimeN
                                                                  const Eigen::Vector3d& ba,
                                                                  bool corrected) const {
   auto pre = std::make_shared<ImuPreintegration>(rig.inertial[0].noise, bg, ba, maxImuInterval());
-  for (const auto& m : imuBetween(a, b)) pre->add(corrected ? propagationReading(m) : m);
+  for (const auto& m : imuToIntegrate(a, b)) pre->add(corrected ? propagationReading(m) : m);
   return pre;
 }
 

@@ -67,7 +67,13 @@ std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrateAux(
     const Eigen::Vector3d& ba) const {
   if (a.readings.empty() || tau_b <= tau_a) return nullptr;
   if (a.readings.front().stamp_ns > tau_a || a.readings.back().stamp_ns < tau_b) return nullptr;
-  const std::vector<ImuMeasurement> readings = readingsBetween(a.readings, tau_a, tau_b);
+  // The cubic over the last interval needs the reading after the one past tau_b.
+  const std::size_t n = a.readings.size();
+  if (integrationIntervalNs(a.sensor) > 0 && (n < 2 || a.readings[n - 2].stamp_ns < tau_b))
+    return nullptr;
+  const std::vector<ImuMeasurement> readings =
+      readingsBetween(a.readings, tau_a, tau_b, fromSeconds(options.imu_integration_step_s),
+                      integrationIntervalNs(a.sensor));
   const TimeNs max_gap = fromSeconds(options.aux_max_gap_s);
   for (const auto& r : readings) {
     if (r.span_ns > max_gap) return nullptr;
@@ -165,7 +171,9 @@ void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1
     const Eigen::Vector3d p_IA = -R_AI.transpose() * p_AI;
     for (std::size_t i = 0; i < n; ++i) {
       const State& s = *states[k0 + i];
-      const Eigen::Vector3d w_I = R_AI.transpose() * (readingIn(a.readings, tau[i]).gyro - bg);
+      const Eigen::Vector3d w_I =
+          R_AI.transpose() *
+          (readingIn(a.readings, tau[i], integrationIntervalNs(a.sensor)).gyro - bg);
       v_A[i] = Eigen::Vector3d(s.speed_bias) + poseRotation(s.pose) * w_I.cross(p_IA);
     }
     const double sa = config.noise.accelerometer_noise_density;

@@ -178,14 +178,6 @@ struct TagLandmark {
   double x[kTagLandmarkSize];
 };
 
-// The reading at t in a buffer of increasing stamps, interpolated between its neighbours (the
-// nearest one outside the buffer).
-ImuMeasurement readingIn(const std::deque<ImuMeasurement>& buffer, TimeNs t);
-
-// The readings over [a, b] with interpolated readings at both ends.
-std::vector<ImuMeasurement> readingsBetween(const std::deque<ImuMeasurement>& buffer, TimeNs a,
-                                            TimeNs b);
-
 inline double seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
 }
@@ -198,9 +190,7 @@ using estimator_internal::CameraBlocks;
 using estimator_internal::Clock;
 using estimator_internal::ImuIntrinsicsBlock;
 using estimator_internal::InitFrame;
-using estimator_internal::readingIn;
 using estimator_internal::ReadingMoments;
-using estimator_internal::readingsBetween;
 using estimator_internal::ResidualRecord;
 using estimator_internal::seconds;
 using estimator_internal::State;
@@ -341,6 +331,10 @@ struct Estimator::Impl {
 
   // IMU readings over [a, b] with interpolated readings at both ends.
   std::vector<ImuMeasurement> imuBetween(TimeNs a, TimeNs b) const;
+  // The base readings over [a, b] to integrate: resampled at options.imu_integration_step_s.
+  std::vector<ImuMeasurement> imuToIntegrate(TimeNs a, TimeNs b) const;
+  // A gap for the cubic interpolation of inertial sensor `sensor`'s readings (0: linear only).
+  TimeNs integrationIntervalNs(std::size_t sensor) const;
 
   // `corrected`: the readings corrected by the current intrinsics estimate
   // (propagationReading), for when the deltas are used as they are; else as stored (raw while

@@ -118,9 +118,10 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
     if (imu_in != nullptr && t_a - sk->t > kIntrinsicsAnchorSpanNs) {
       // Raw readings re-integrated at the state's biases and the current intrinsics, with the
       // intrinsics' Jacobian (tag_reprojection_factor.h).
-      const ImuDeltas d = reintegrate(
-          imuBetween(sk->t, t_a), deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
-          imu_intrinsics[0]->frame, true);
+      const ImuDeltas d =
+          reintegrate(imuToIntegrate(sk->t, t_a),
+                      deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
+                      imu_intrinsics[0]->frame, true);
       anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
       blocks.push_back(imu_in);
       if (options.propagation_noise) {
