@@ -105,6 +105,7 @@ void MvisNodelet::onInit() {
     eo.window_size = options_.window_size;
     eo.pixel_sigma_px = options_.pixel_sigma;
     eo.huber_sigma = options_.huber_sigma;
+    eo.robust_loss = options_.robust_loss == "frame" ? RobustLoss::kFrame : RobustLoss::kCorner;
     eo.propagation_noise = options_.propagation_noise;
     eo.min_tags = options_.min_tags;
     eo.estimate_extrinsics = options_.estimate_extrinsics;

@@ -17,6 +17,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("window_size", o.window_size, o.window_size);
   nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
   nh.param("huber_sigma", o.huber_sigma, o.huber_sigma);
+  nh.param("robust_loss", o.robust_loss, o.robust_loss);
   nh.param("propagation_noise", o.propagation_noise, o.propagation_noise);
   nh.param("min_tags", o.min_tags, o.min_tags);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
@@ -67,6 +68,9 @@ std::string NodeletOptions::validate() const {
   if (!(observability_horizon_s > 0.0)) return "parameter ~observability_horizon must be positive";
   if (!(pixel_sigma > 0.0)) return "parameter ~pixel_sigma must be positive";
   if (!(huber_sigma >= 0.0)) return "parameter ~huber_sigma must be >= 0 (0: no robust loss)";
+  if (robust_loss != "corner" && robust_loss != "frame") {
+    return "parameter ~robust_loss must be 'corner' or 'frame', got '" + robust_loss + "'";
+  }
   if (min_tags < 1) return "parameter ~min_tags must be >= 1";
   if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
     return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +

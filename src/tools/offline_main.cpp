@@ -1,5 +1,6 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
-//              [--pixel-sigma PX] [--huber S] [--window N] [--max-iterations N] [--solve-every N]
+//              [--pixel-sigma PX] [--huber S] [--robust-loss frame|corner] [--window N]
+//              [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
@@ -29,6 +30,7 @@ int usage(const char* message) {
   std::fprintf(stderr,
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
+               "                    [--robust-loss frame|corner]\n"
                "                    [--window N]\n"
                "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
@@ -45,8 +47,9 @@ int usage(const char* message) {
                "  --interpolation  frame poses from the IMU (default) or the report's\n"
                "                   kinematic/pose-based interpolation\n"
                "  --pixel-sigma PX corner noise (default 1)\n"
-               "  --huber S        robust loss threshold per camera factor (a frame's corners;\n"
-               "                   a tag's without a board) [sigma] (default 3, 0: none)\n"
+               "  --huber S        robust loss threshold [sigma] (default 3, 0: none)\n"
+               "  --robust-loss L  where the Huber loss acts: on each corner (corner, default)\n"
+               "                   or on a frame's corners together (frame)\n"
                "  --window N       states in the sliding window (default 4)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
                "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
@@ -91,6 +94,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> hold;
   double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
   double huber = mvis::EstimatorOptions{}.huber_sigma;
+  mvis::RobustLoss robust_loss = mvis::EstimatorOptions{}.robust_loss;
   bool propagation_noise = false;
   double imu_step = mvis::EstimatorOptions{}.imu_integration_step_s;
   double max_solve_time = 1e3;
@@ -117,6 +121,11 @@ int main(int argc, char** argv) {
       if (!value(&v) || !(std::atof(v.c_str()) > 0.0))
         return usage("--pixel-sigma takes pixels > 0");
       pixel_sigma = std::atof(v.c_str());
+    } else if (arg == "--robust-loss") {
+      std::string v;
+      if (!value(&v) || (v != "frame" && v != "corner"))
+        return usage("--robust-loss takes frame or corner");
+      robust_loss = v == "corner" ? mvis::RobustLoss::kCorner : mvis::RobustLoss::kFrame;
     } else if (arg == "--huber") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) return usage("--huber takes sigmas >= 0");
@@ -199,6 +208,7 @@ int main(int argc, char** argv) {
   mvis::OfflineOptions options;
   options.estimator.pixel_sigma_px = pixel_sigma;
   options.estimator.huber_sigma = huber;
+  options.estimator.robust_loss = robust_loss;
   options.estimator.propagation_noise = propagation_noise;
   options.estimator.imu_integration_step_s = imu_step;
   options.estimator.window_size = window;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <limits>
+#include <random>
 
 #include "estimator_test_util.h"
 
@@ -45,7 +46,7 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
         after.translation_sigma_ratio[0], after.translation_sigma_ratio[1],
         after.translation_sigma_ratio[2], after.time_offset_sigma_ratio);
     // The bounds (measured with seed 3, the aux IMU and gyroscope in the window:
-    // <= 0.015 deg, 0.41 mm, 0.045 ms).
+    // <= 0.013 deg, 0.44 mm, 0.043 ms).
     EXPECT_LT(after.rotation_deg, 0.05);
     EXPECT_LT(after.translation_mm, 1.0);
     EXPECT_LT(after.time_offset_ms, 0.05);
@@ -55,7 +56,7 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
     EXPECT_LT(after.time_offset_sigma_ratio, 3.0);
   }
   // Auxiliary IMU (imu1) and gyroscope (imu2), the aux issue's bounds for 60 s met in 20 s
-  // (measured with seed 3: imu1 0.004 deg, 0.59 mm, 0.035 ms; imu2 0.003 deg, 0.065 ms).
+  // (measured with seed 3: imu1 0.003 deg, 0.54 mm, 0.031 ms; imu2 0.003 deg, 0.063 ms).
   for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
     const InertialSensor& truth = run.truth.inertial[i];
     const InertialSensor& est = estimate.inertial[i];
@@ -96,7 +97,7 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
   std::printf("IMU-rate states: %zu, position RMSE after 5 s %.2f mm\n", propagated.size(),
               propagated_rmse * 1e3);
   EXPECT_LT(propagated_rmse, 0.002);
-  // Measured 2.6 mm and 0.8 mm (seed 3); the bounds leave room for other seeds' convergence.
+  // Measured 4.4 mm and 0.9 mm (seed 3); the bounds leave room for other seeds' convergence.
   EXPECT_LT(ate, 0.008);
   EXPECT_LT(ate_converged, 0.002);
 }
@@ -259,6 +260,63 @@ void expectSmallRigCalibrated(const SimRun& run, const Rig& estimate, const char
   EXPECT_LT(w.rotation_deg, 0.2) << label;
   EXPECT_LT(w.translation_mm, 5.0) << label;
   EXPECT_LT(w.time_offset_ms, 0.5) << label;
+}
+
+// Wrong detections: one corner of 3% of the tag observations 15-30 px off (a refinement that
+// jumped to another edge), and 1% read as the next tag of the board (all four corners a tag
+// over). The robust loss must keep the calibration near where the clean data puts it (20 s:
+// 0.015 deg, 0.41 mm, 0.045 ms at worst), per corner and per frame; plain squares let the wrong
+// ids pull it by centimetres. Measured (seed 3): plain squares 0.41 deg, 32 mm, 1.0 ms; per
+// frame 0.020 deg, 0.78 mm, 0.050 ms; per corner 0.011 deg, 0.23 mm, 0.031 ms (with plain
+// squares in the first batch too, per corner ended 5.3 mm off: hence the batch's frame loss).
+TEST(Estimator, WrongCornersAreOutweighedByTheRobustLoss) {
+  SimRun run = simulate("sim_vi_rig", 20.0, 3);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  int wrong_corner = 0, wrong_id = 0, observations = 0;
+  const int tags = run.truth.target->numTags();
+  for (auto& frame : run.data.frames) {
+    for (auto& tag : frame.tags) {
+      ++observations;
+      const double draw = uniform(rng);
+      if (draw < 0.01 && tag.tag_id + 1 < tags) {  // decoded as the next tag of the board
+        ++tag.tag_id;
+        ++wrong_id;
+      } else if (draw < 0.04) {
+        const double angle = 2.0 * M_PI * uniform(rng), size = 15.0 + 15.0 * uniform(rng);
+        tag.corners_px[static_cast<int>(4.0 * uniform(rng)) % 4] +=
+            size * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+        ++wrong_corner;
+      }
+    }
+  }
+  std::printf("%d of %d tag observations with a wrong corner, %d with the next tag's id\n",
+              wrong_corner, observations, wrong_id);
+  struct Setting {
+    const char* name;
+    double huber;
+    RobustLoss loss;
+  };
+  for (const Setting& setting : {Setting{"plain squares", 0.0, RobustLoss::kFrame},
+                                 Setting{"per frame", 3.0, RobustLoss::kFrame},
+                                 Setting{"per corner", 3.0, RobustLoss::kCorner}}) {
+    EstimatorOptions options = deterministic();
+    options.pixel_sigma_px = 0.5;
+    options.huber_sigma = setting.huber;
+    options.robust_loss = setting.loss;
+    const auto estimator = runFrom(run.guess, run, options);
+    ASSERT_TRUE(estimator);
+    const WorstErrors w = worst(run.truth, estimator->calibration());
+    std::printf("%s: cameras up to %.4f deg, %.3f mm, %.4f ms off\n", setting.name, w.rotation_deg,
+                w.translation_mm, w.time_offset_ms);
+    if (setting.huber == 0.0) {
+      EXPECT_GT(w.translation_mm, 10.0);  // what the loss is for
+    } else {
+      EXPECT_LT(w.rotation_deg, 0.05) << setting.name;
+      EXPECT_LT(w.translation_mm, 1.5) << setting.name;
+      EXPECT_LT(w.time_offset_ms, 0.1) << setting.name;
+    }
+  }
 }
 
 TEST(Estimator, DropsAndCountsBadInputAndKeepsCalibrating) {

@@ -4,6 +4,8 @@
 #include <ceres/sphere_manifold.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "factor_test_util.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/state_blocks.h"
@@ -208,6 +210,55 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
                                                          &pose, nullptr, nullptr};
   EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*f, blocks, manifolds),
                                    test::numericTangentJacobians(*f, blocks, manifolds, 1e-6)),
+            1e-5);
+}
+
+// The per-corner Huber loss: corners within the threshold keep their residuals, the others
+// shrink to |r'|^2 = 2 c n - c^2 along the same direction, and the Jacobians match central
+// differences (the threshold between two corners' norms, so that no corner sits on the kink).
+TEST(TagReprojectionFactor, CornerLossIsHuberPerCorner) {
+  const Scene s = makeScene(0.01);
+  const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
+  const Eigen::Vector3d bg(1e-3, -2e-3, 5e-4), ba(0.02, -0.01, 0.03);
+  auto plain = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+  auto robust = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  const std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
+  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
+  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
+                                                   sb,
+                                                   {g.x(), g.y(), g.z()},
+                                                   poseBlock(s.rig.cameras[2].T_cam_imu),
+                                                   {0.012},
+                                                   intrinsicsBlock(s.rig.cameras[2])};
+  const Eigen::VectorXd r = test::evaluateResiduals(*plain, blocks);
+  const int n_corners = static_cast<int>(r.size() / 2);
+  std::vector<double> norms;
+  for (int k = 0; k < n_corners; ++k) norms.push_back(r.segment<2>(2 * k).norm());
+  std::sort(norms.begin(), norms.end());
+  ASSERT_GT(norms[n_corners / 2] - norms[n_corners / 2 - 1], 1e-4);  // no corner on the kink
+  const double c = 0.5 * (norms[n_corners / 2 - 1] + norms[n_corners / 2]);
+  robust->useCornerLoss(c);
+  const Eigen::VectorXd rr = test::evaluateResiduals(*robust, blocks);
+  int shrunk = 0;
+  for (int k = 0; k < n_corners; ++k) {
+    const Eigen::Vector2d a = r.segment<2>(2 * k), b = rr.segment<2>(2 * k);
+    const double n = a.norm();
+    if (n <= c) {
+      EXPECT_EQ((a - b).norm(), 0.0) << k;
+      continue;
+    }
+    ++shrunk;
+    EXPECT_NEAR(b.squaredNorm(), 2.0 * c * n - c * c, 1e-12 * n * n) << k;
+    EXPECT_NEAR(a.normalized().dot(b.normalized()), 1.0, 1e-12) << k;
+  }
+  EXPECT_EQ(shrunk, n_corners - n_corners / 2);
+  const PoseManifold pose;
+  const ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &sphere,
+                                                         &pose, nullptr, nullptr};
+  EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*robust, blocks, manifolds),
+                                   test::numericTangentJacobians(*robust, blocks, manifolds, 1e-6)),
             1e-5);
 }
 

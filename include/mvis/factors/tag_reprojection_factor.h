@@ -42,6 +42,15 @@
 // more block, a tag's four corners [p_G,0 .. p_G,3] (12 values, world frame), and each corner
 // names its index in it; dz/dp_G = dpi/dp_C R_C_G.
 //
+// Robust loss per corner (optional, useCornerLoss(c), c in sigmas): a corner whose whitened
+// residual r (2 values) has n = |r| > c contributes Huber's rho(n^2) = 2 c n - c^2 instead of
+// n^2: its residual becomes r' = g u with g = sqrt(2 c n - c^2) and u = r / n, so that |r'|^2 =
+// rho, and its Jacobian rows J' = M J with
+//   M = dr'/dr = (c / g) u u^T + (g / n) (I - u u^T)
+// (M = I at n = c). Corners within c sigmas count fully; a wrong corner weighs like ~c/n of one.
+// Without it the estimator may put a loss on the factor's whole squared norm instead
+// (EstimatorOptions::robust_loss).
+//
 // Parameters:
 //   kinematic:       pose_k [7], speed_bias_k [9], extrinsic T_C_I [7], time_offset [1],
 //                    intrinsics [8]
@@ -151,6 +160,9 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // last parameter; every corner must name its index in it. Call before adding the factor.
   void useLandmarkBlock();
 
+  // Huber loss on each corner's whitened residual at `threshold` sigmas (see the header).
+  void useCornerLoss(double threshold) { corner_loss_ = threshold; }
+
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -163,6 +175,8 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // Evaluate with Dim jet directions: 25 (kStageDim), or 34 with the anchor's deltas.
   template <int Dim>
   bool evaluate(double const* const* parameters, double* residuals, double** jacobians) const;
+  // The per-corner loss applied to residuals and Jacobians as evaluated.
+  void robustifyCorners(double* residuals, double** jacobians) const;
   // The camera pose R_C_G, t_C_G at the frame and their derivatives in Dim jet directions.
   template <int Dim>
   struct CameraPose {
@@ -179,8 +193,9 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   };
   std::vector<BlockLayout> layout_;
   ImuAnchor anchor_;
-  int landmark_block_ = -1;  // index of the landmark block, -1 without
-  int noise_block_ = -1;     // index of the propagation-noise block, -1 without
+  int landmark_block_ = -1;   // index of the landmark block, -1 without
+  int noise_block_ = -1;      // index of the propagation-noise block, -1 without
+  double corner_loss_ = 0.0;  // Huber threshold per corner [sigma], 0: plain squares
   std::shared_ptr<SharedCameraPose> shared_;
 
   Interpolation interpolation_;

@@ -23,6 +23,7 @@ struct NodeletOptions {
   int window_size = 4;                              // states in the sliding window
   double pixel_sigma = 1.0;                         // [px] corner noise
   double huber_sigma = 3.0;                         // [sigma] camera factors' robust loss, 0: none
+  std::string robust_loss = "corner";               // where it acts: "corner" or "frame"
   bool propagation_noise = false;                   // frames between states carry the IMU's noise
   int min_tags = 2;                                 // tags a frame needs with a board (1 without)
   bool estimate_extrinsics = true;                  // camera-IMU extrinsics

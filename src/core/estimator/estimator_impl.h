@@ -373,7 +373,8 @@ struct Estimator::Impl {
   // Without a board, the loss of each of a frame's T tag factors: Huber at huber_sigma /
   // sqrt(T), so that the frame weighs as it would as one factor with the board (the Huber on
   // its whole norm counts a frame of N corners like about 3 sqrt(N/2) of them, see
-  // EstimatorOptions::huber_sigma): a frame's tags share its errors, whatever holds its corners.
+  // RobustLoss::kFrame): a frame's tags share its errors, whatever holds its corners. Used with
+  // RobustLoss::kFrame and in the first batch.
   ceres::LossFunction* tagLoss(int tags) {
     if (!huber) return nullptr;
     auto& loss = tag_losses[tags];

@@ -176,9 +176,17 @@ std::vector<Estimator::Impl::FramePiece> Estimator::Impl::frameFactors(const Tag
   const auto shared = landmarkMode() ? TagReprojectionFactor::makeSharedCameraPose() : nullptr;
   for (auto& [obs, landmark] : groups) {
     TagReprojectionFactor* factor = make(std::move(obs));
-    FramePiece piece{factor,
-                     landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber.get(),
-                     blocks};
+    ceres::LossFunction* loss = nullptr;
+    // The first batch (before `initialized`) always has the loss per frame: its residuals are
+    // mostly the rough initial calibration's, which a per-corner loss would take for outliers
+    // (it left the batch's states tens of millimetres off), and plain squares would let a
+    // wrong detection in it bias everything that follows.
+    if (options.robust_loss == RobustLoss::kFrame || !initialized) {
+      loss = landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber.get();
+    } else if (options.huber_sigma > 0.0) {
+      factor->useCornerLoss(options.huber_sigma);
+    }
+    FramePiece piece{factor, loss, blocks};
     if (landmark != nullptr) {
       factor->useLandmarkBlock();
       factor->shareCameraPose(shared);

@@ -1,6 +1,7 @@
 #include "mvis/factors/tag_reprojection_factor.h"
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 
 #include "mvis/camera/camera_model.h"
@@ -146,11 +147,35 @@ void TagReprojectionFactor::useLandmarkBlock() {
 
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
-  if (interpolation_ == Interpolation::kImuPropagated &&
-      (anchor_.with_intrinsics || noise_block_ >= 0)) {
-    return evaluate<kStageDim + 9>(parameters, residuals, jacobians);
+  const bool ok = interpolation_ == Interpolation::kImuPropagated &&
+                          (anchor_.with_intrinsics || noise_block_ >= 0)
+                      ? evaluate<kStageDim + 9>(parameters, residuals, jacobians)
+                      : evaluate<kStageDim>(parameters, residuals, jacobians);
+  if (ok && corner_loss_ > 0.0) robustifyCorners(residuals, jacobians);
+  return ok;
+}
+
+void TagReprojectionFactor::robustifyCorners(double* residuals, double** jacobians) const {
+  const double c = corner_loss_;
+  const std::vector<int32_t>& sizes = parameter_block_sizes();
+  for (std::size_t k = 0; k < corners_.size(); ++k) {
+    double* r = residuals + 2 * k;
+    const double n = std::hypot(r[0], r[1]);
+    if (!(n > c)) continue;
+    const double g = std::sqrt(2.0 * c * n - c * c);  // sqrt(rho(n^2))
+    const Eigen::Vector2d u(r[0] / n, r[1] / n);
+    r[0] = g * u[0];
+    r[1] = g * u[1];
+    if (jacobians == nullptr) continue;
+    const Eigen::Matrix2d uu = u * u.transpose();
+    const Eigen::Matrix2d M = (c / g) * uu + (g / n) * (Eigen::Matrix2d::Identity() - uu);
+    for (std::size_t b = 0; b < sizes.size(); ++b) {
+      if (jacobians[b] == nullptr) continue;
+      Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>> rows(
+          jacobians[b] + 2 * k * sizes[b], 2, sizes[b]);
+      rows = (M * rows).eval();
+    }
   }
-  return evaluate<kStageDim>(parameters, residuals, jacobians);
 }
 
 template <int Dim>
