@@ -177,6 +177,19 @@ std::vector<double> speedBiasBlock(const TrajectoryState& st) {
   return sb;
 }
 
+// Camera 2's IMU-propagated factor's blocks at the state of t_k, with speed, biases, gravity
+// and time offset off the truth: where Jacobians are checked.
+std::vector<std::vector<double>> offTruthImuPropagatedBlocks(const Scene& s, double t_k) {
+  const TrajectoryState sk = s.trajectory.evaluate(t_k);
+  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
+  return {poseBlock(sk.T_G_I),
+          {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1},
+          {g.x(), g.y(), g.z()},
+          poseBlock(s.rig.cameras[2].T_cam_imu),
+          {0.012},
+          intrinsicsBlock(s.rig.cameras[2])};
+}
+
 TEST(TagReprojectionFactor, ImuPropagatedAtTruthReproducesProjections) {
   const Scene s = makeScene(-0.006);
   const double t_k = 5.0, t_c = t_k + 0.4 / 30.0 + 0.006;
@@ -195,15 +208,7 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
   const double t_k = 7.0, t_c = t_k + 0.3 / 30.0 - 0.01, t_a = t_c + 0.01 - 0.004;
   auto f = imuPropagatedFactor(s, 2, t_k, t_c, t_a, Eigen::Vector3d(1e-3, -2e-3, 5e-4),
                                Eigen::Vector3d(0.02, -0.01, 0.03));
-  const TrajectoryState sk = s.trajectory.evaluate(t_k);
-  std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
-  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
-  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
-                                                   sb,
-                                                   {g.x(), g.y(), g.z()},
-                                                   poseBlock(s.rig.cameras[2].T_cam_imu),
-                                                   {0.012},
-                                                   intrinsicsBlock(s.rig.cameras[2])};
+  const std::vector<std::vector<double>> blocks = offTruthImuPropagatedBlocks(s, t_k);
   const PoseManifold pose;
   const ceres::SphereManifold<3> sphere;
   const std::vector<const ceres::Manifold*> manifolds = {&pose, nullptr, &sphere,
@@ -222,15 +227,7 @@ TEST(TagReprojectionFactor, CornerLossIsHuberPerCorner) {
   const Eigen::Vector3d bg(1e-3, -2e-3, 5e-4), ba(0.02, -0.01, 0.03);
   auto plain = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
   auto robust = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
-  const TrajectoryState sk = s.trajectory.evaluate(t_k);
-  const std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
-  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
-  const std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
-                                                   sb,
-                                                   {g.x(), g.y(), g.z()},
-                                                   poseBlock(s.rig.cameras[2].T_cam_imu),
-                                                   {0.012},
-                                                   intrinsicsBlock(s.rig.cameras[2])};
+  const std::vector<std::vector<double>> blocks = offTruthImuPropagatedBlocks(s, t_k);
   const Eigen::VectorXd r = test::evaluateResiduals(*plain, blocks);
   const int n_corners = static_cast<int>(r.size() / 2);
   std::vector<double> norms;
@@ -275,14 +272,7 @@ TEST(TagReprojectionFactor, ImuPropagatedWithPropagationNoise) {
   ASSERT_EQ(noisy->parameter_block_sizes().size(), 7u);
   ASSERT_EQ(noisy->parameter_block_sizes().back(), kPropagationNoiseSize);
   const TrajectoryState sk = s.trajectory.evaluate(t_k);
-  std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
-  const Eigen::Vector3d g = lie::expSO3(Eigen::Vector3d(0.03, -0.02, 0.0)) * kGravity_G;
-  std::vector<std::vector<double>> blocks = {poseBlock(sk.T_G_I),
-                                             sb,
-                                             {g.x(), g.y(), g.z()},
-                                             poseBlock(s.rig.cameras[2].T_cam_imu),
-                                             {0.012},
-                                             intrinsicsBlock(s.rig.cameras[2])};
+  const std::vector<std::vector<double>> blocks = offTruthImuPropagatedBlocks(s, t_k);
   std::vector<std::vector<double>> with_noise = blocks;
   with_noise.push_back(std::vector<double>(kPropagationNoiseSize, 0.0));
   const Eigen::VectorXd r_plain = test::evaluateResiduals(*plain, blocks);
