@@ -2,6 +2,9 @@
 // biases (imu_correction.h), checked against the rpng model written out directly.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <deque>
+
 #include "mvis/common/lie.h"
 #include "mvis/estimator/imu_correction.h"
 
@@ -54,6 +57,42 @@ TEST(ImuCorrection, CorrectedReadingsFollowTheCalibratedModel) {
   raw.accel = Eigen::Vector3d(4, 5, 6);
   EXPECT_EQ(none.apply(raw, false).gyro, raw.gyro);
   EXPECT_EQ(none.apply(raw, false).accel, raw.accel);
+}
+
+// Readings resampled between real ones (readingsBetween's cubic, imu_preintegration.h) and then
+// corrected equal the corrected readings resampled, biases subtracted too (the re-integration's
+// affine model, imu_reintegration.h): the cubic's weights sum to one. So the estimator may
+// resample raw readings once and correct or re-integrate them at any biases and intrinsics later.
+TEST(ImuCorrection, CommutesWithTheCubicResampling) {
+  const ImuCorrection correction(someIntrinsics());
+  const Eigen::Vector3d bg(0.01, -0.02, 0.005), ba(0.1, 0.05, -0.2);
+  const auto correct = [&](ImuMeasurement m) {
+    m.gyro -= bg;
+    m.accel -= ba;
+    return correction.apply(m, false);
+  };
+  std::deque<ImuMeasurement> raw, corrected;
+  for (int k = 0; k < 6; ++k) {
+    ImuMeasurement m;
+    m.stamp_ns = fromSeconds(0.01 * k + 0.001 * (k % 2));  // uneven spacing
+    m.gyro = Eigen::Vector3d(0.3 * k - 0.5, std::sin(k), 0.4 * k * k);
+    m.accel = Eigen::Vector3d(0.5 * k, -9.7 + std::cos(k), 1.0 - k);
+    raw.push_back(m);
+    corrected.push_back(correct(m));
+  }
+  const TimeNs max_interval = fromSeconds(0.025);
+  const auto a = readingsBetween(raw, fromSeconds(0.012), fromSeconds(0.037), fromSeconds(0.0025),
+                                 max_interval);
+  const auto b = readingsBetween(corrected, fromSeconds(0.012), fromSeconds(0.037),
+                                 fromSeconds(0.0025), max_interval);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 10u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const ImuMeasurement c = correct(a[i]);
+    EXPECT_EQ(c.stamp_ns, b[i].stamp_ns);
+    EXPECT_LT((c.gyro - b[i].gyro).norm(), 1e-12) << i;
+    EXPECT_LT((c.accel - b[i].accel).norm(), 1e-12) << i;
+  }
 }
 
 }  // namespace
