@@ -213,8 +213,9 @@ struct Estimator::Impl {
   double initial_tag_side = 1.0;  // [m] from the initial alignment
   // The first state's pose defines the world frame without a board: a prior this tight [rad, m].
   static constexpr double kGaugeStd = 1e-6;
-  // The camera factors' robust loss (options.huber_sigma), null for plain squares; without a
-  // board, per number of tags in the frame (tagLoss).
+  // The camera factors' loss per frame (options.huber_sigma; RobustLoss::kFrame, and the first
+  // batch whatever robust_loss says), null for plain squares; without a board, per number of
+  // tags in the frame (tagLoss). The loss per corner lives in the factor (useCornerLoss).
   std::unique_ptr<ceres::LossFunction> huber;
   std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses;
   std::unique_ptr<ceres::Problem> problem;
