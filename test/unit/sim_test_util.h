@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "mvis/common/lie.h"
-#include "mvis/estimator/imu_reintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 #include "mvis/rig/rig.h"
 #include "mvis/sim/imu_simulator.h"
 #include "mvis/sim/trajectory.h"

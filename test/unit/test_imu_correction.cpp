@@ -6,7 +6,7 @@
 #include <deque>
 
 #include "mvis/common/lie.h"
-#include "mvis/estimator/imu_correction.h"
+#include "mvis/inertial/imu_correction.h"
 
 namespace mvis {
 namespace {

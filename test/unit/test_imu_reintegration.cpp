@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "mvis/common/lie.h"
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 #include "mvis/sim/imu_simulator.h"
 #include "sim_test_util.h"
 

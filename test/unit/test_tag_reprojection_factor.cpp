@@ -8,7 +8,7 @@
 
 #include "factor_test_util.h"
 #include "mvis/camera/camera_model.h"
-#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/sim/imu_simulator.h"

@@ -48,10 +48,10 @@
 
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/frontend/tag_observation.h"
+#include "mvis/inertial/imu_readings.h"
+#include "mvis/inertial/imu_reintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "mvis/common/lie.h"
-#include "mvis/estimator/imu_preintegration.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "mvis/frontend/tag_observation.h"
+#include "mvis/inertial/imu_preintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {

@@ -39,10 +39,10 @@
 
 #include <memory>
 
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/factors/base_motion.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 
 namespace mvis {
 

@@ -25,9 +25,9 @@
 
 #include <memory>
 
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
 #include "mvis/factors/base_motion.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 
 namespace mvis {
 

@@ -2,7 +2,7 @@
 //
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], gravity [3], and with
 // the base IMU's intrinsics estimated its intrinsics block [24] (layouts in
-// mvis/estimator/state_blocks.h and mvis/estimator/imu_reintegration.h). With T = t_j - t_i, g
+// mvis/factors/state_blocks.h and mvis/inertial/imu_reintegration.h). With T = t_j - t_i, g
 // the gravity vector and the deltas dR, dp, dv at x = [b_g,i b_a,i intrinsics]:
 //   r_theta = Log(dR(x)^T R_i^T R_j)
 //   r_p     = R_i^T (p_j - p_i - v_i T - 1/2 g T^2) - dp(x)
@@ -36,8 +36,8 @@
 
 #include <memory>
 
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 
 namespace mvis {
 

@@ -1,7 +1,7 @@
 // Prior on a pose block (window state or camera extrinsic): what the initial guess or the
 // configuration's *_std keys say of it.
 //
-// Parameters: pose [7] (layout and right perturbation in mvis/estimator/state_blocks.h). With
+// Parameters: pose [7] (layout and right perturbation in mvis/factors/state_blocks.h). With
 // the prior mean T0 = (q0, p0) and square-root information L (L^T L = Sigma^-1, Sigma the 6x6
 // covariance of [dtheta, dp]):
 //   r = L [Log(q0^-1 q); p - p0]

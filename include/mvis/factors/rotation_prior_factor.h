@@ -1,7 +1,7 @@
 // Prior on a rotation block (a gyroscope's extrinsic rotation): what the initial guess or the
 // configuration's *_std keys say of it.
 //
-// Parameters: rotation [4] ([qx qy qz qw], RotationManifold in mvis/estimator/state_blocks.h).
+// Parameters: rotation [4] ([qx qy qz qw], RotationManifold in mvis/factors/state_blocks.h).
 // With the prior mean q0 and standard deviations s per axis [rad]:
 //   r = diag(1 / s) Log(q0^-1 q)
 // Jacobian in the tangent (q Exp(dtheta)): d r / d dtheta = diag(1 / s) Jr^-1(Log(q0^-1 q)).

@@ -76,8 +76,8 @@
 #include <memory>
 #include <vector>
 
-#include "mvis/estimator/imu_preintegration.h"
-#include "mvis/estimator/imu_reintegration.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {

@@ -13,8 +13,8 @@
 
 #include "mvis/common/lie.h"
 #include "mvis/common/time.h"
-#include "mvis/estimator/imu_preintegration.h"
 #include "mvis/frontend/tag_observation.h"
+#include "mvis/inertial/imu_preintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis::ros_conversions {

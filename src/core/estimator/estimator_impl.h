@@ -18,16 +18,16 @@
 
 #include "mvis/camera/camera_model.h"
 #include "mvis/estimator/estimator.h"
-#include "mvis/estimator/imu_correction.h"
 #include "mvis/estimator/initialization.h"
-#include "mvis/estimator/state_blocks.h"
 #include "mvis/factors/aux_imu_factor.h"
 #include "mvis/factors/gyro_factor.h"
 #include "mvis/factors/imu_factor.h"
 #include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/pose_prior_factor.h"
+#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "mvis/factors/tangent_prior_factor.h"
+#include "mvis/inertial/imu_correction.h"
 
 namespace mvis {
 

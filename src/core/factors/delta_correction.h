@@ -1,12 +1,12 @@
-// Deltas of ImuDeltas (mvis/estimator/imu_reintegration.h) at other biases and intrinsics, for
+// Deltas of ImuDeltas (mvis/inertial/imu_reintegration.h) at other biases and intrinsics, for
 // the factors that differentiate with ceres::Jet. Private to src/core/factors.
 //
 // To first order about the integration point x0 (exact value and derivatives at x = x0):
 //   dR(x) = dR Exp(J_theta (x - x0)),  dp(x) = dp + J_p (x - x0),  dv(x) = dv + J_v (x - x0).
 #pragma once
 
-#include "mvis/estimator/imu_reintegration.h"
-#include "tangent_jet.h"
+#include "../common/tangent_jet.h"
+#include "mvis/inertial/imu_reintegration.h"
 
 namespace mvis {
 

@@ -1,6 +1,6 @@
 #include "mvis/factors/pose_prior_factor.h"
 
-#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/state_blocks.h"
 
 namespace mvis {
 

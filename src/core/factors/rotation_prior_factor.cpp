@@ -1,7 +1,7 @@
 #include "mvis/factors/rotation_prior_factor.h"
 
 #include "mvis/common/lie.h"
-#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/state_blocks.h"
 
 namespace mvis {
 

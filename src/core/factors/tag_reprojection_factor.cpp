@@ -4,10 +4,10 @@
 #include <cmath>
 #include <mutex>
 
+#include "../common/tangent_jet.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/common/lie.h"
-#include "mvis/estimator/state_blocks.h"
-#include "tangent_jet.h"
+#include "mvis/factors/state_blocks.h"
 
 namespace mvis {
 namespace {

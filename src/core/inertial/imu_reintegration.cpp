@@ -1,8 +1,8 @@
-#include "mvis/estimator/imu_reintegration.h"
+#include "mvis/inertial/imu_reintegration.h"
 
 #include <ceres/jet.h>
 
-#include "../factors/tangent_jet.h"
+#include "../common/tangent_jet.h"
 #include "mvis/common/lie.h"
 
 namespace mvis {

@@ -1,4 +1,4 @@
-#include "mvis/estimator/imu_correction.h"
+#include "mvis/inertial/imu_correction.h"
 
 #include <Eigen/LU>
 

@@ -1,4 +1,4 @@
-#include "mvis/estimator/state_blocks.h"
+#include "mvis/factors/state_blocks.h"
 
 namespace mvis {
 

@@ -18,7 +18,7 @@
 
 #include <Eigen/Core>
 
-#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/inertial/imu_preintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {

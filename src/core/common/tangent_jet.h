@@ -1,5 +1,6 @@
 // Forward-mode differentiation in the tangent spaces of the estimator's blocks, shared by the
-// factors that differentiate with ceres::Jet. Private to src/core/factors.
+// factors that differentiate with ceres::Jet. Private to src/core (src/core/factors and the
+// inertial re-integration).
 //
 // A factor picks a jet dimension per tangent direction of its blocks (pose and extrinsic blocks
 // perturbed on the right, R Exp(dtheta), p + dp; plain vectors in their ambient coordinates),

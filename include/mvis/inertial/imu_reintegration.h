@@ -25,7 +25,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
-#include "mvis/estimator/imu_preintegration.h"
+#include "mvis/inertial/imu_preintegration.h"
 #include "mvis/rig/rig.h"
 
 namespace mvis {
