@@ -25,6 +25,10 @@ add_test(NAME core_links_without_ros
   COMMAND ${CMAKE_COMMAND} -DLIBRARY=$<TARGET_FILE:mvis_core>
           -P ${PROJECT_SOURCE_DIR}/test/unit/check_no_ros_link.cmake)
 
+# The core's layers (doc/architecture.md) are not crossed, and no source file is over 600 lines.
+add_test(NAME core_layers
+  COMMAND ${CMAKE_COMMAND} -DROOT=${PROJECT_SOURCE_DIR} -P ${PROJECT_SOURCE_DIR}/test/unit/check_layers.cmake)
+
 find_package(rostest REQUIRED)
 add_rostest(test/ros/nodelet_loads.test DEPENDENCIES mvis_ros mvis_node)
 add_rostest(test/ros/bad_config.test DEPENDENCIES mvis_ros mvis_node)

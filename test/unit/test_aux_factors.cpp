@@ -9,11 +9,11 @@
 #include <memory>
 
 #include "factor_test_util.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/aux_imu_factor.h"
 #include "mvis/factors/gyro_factor.h"
 #include "mvis/factors/rotation_prior_factor.h"
-#include "mvis/factors/state_blocks.h"
-#include "mvis/inertial/imu_preintegration.h"
 #include "mvis/sim/imu_simulator.h"
 #include "sim_test_util.h"
 

@@ -11,9 +11,9 @@
 #include <memory>
 
 #include "factor_test_util.h"
-#include "mvis/factors/imu_factor.h"
-#include "mvis/factors/state_blocks.h"
 #include "mvis/inertial/imu_preintegration.h"
+#include "mvis/factors/state_blocks.h"
+#include "mvis/factors/imu_factor.h"
 #include "mvis/sim/imu_simulator.h"
 #include "sim_test_util.h"
 

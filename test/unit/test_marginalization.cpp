@@ -10,11 +10,11 @@
 #include <random>
 
 #include "factor_test_util.h"
+#include "mvis/inertial/imu_preintegration.h"
+#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/imu_factor.h"
 #include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/pose_prior_factor.h"
-#include "mvis/factors/state_blocks.h"
-#include "mvis/inertial/imu_preintegration.h"
 
 namespace mvis {
 namespace {

@@ -7,8 +7,8 @@
 
 #include "factor_test_util.h"
 #include "mvis/estimator/observability.h"
-#include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/state_blocks.h"
+#include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {

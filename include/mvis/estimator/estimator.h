@@ -19,8 +19,8 @@
 // the window starts. Until then `status()` says what it is waiting for.
 //
 // Without a board (no aprilgrid.yaml, report Eq. 11) every tag's four corners are a landmark
-// block, one TagReprojectionFactor per tag and frame (estimator_landmarks.cpp). The poses before
-// the window come from one tag of unknown side per camera (its centre; rotations from the
+// block, one TagReprojectionFactor per tag and frame (src/core/estimator/landmarks.h). The poses
+// before the window come from one tag of unknown side per camera (its centre; rotations from the
 // gyroscope), the side from the same fit as gravity, over 4 s; the world frame is gravity-aligned
 // at the first state, held by a tight prior on its pose. A tag leaves (is marginalized) with the
 // last state that sees it.
@@ -182,6 +182,9 @@ struct EstimatorOptions {
 
 // Checked at creation: a clear message naming the option.
 Status validate(const EstimatorOptions& options);
+// The same, and the options against the rig (holds naming its sensors, what its sensors'
+// models allow).
+Status validate(const EstimatorOptions& options, const Rig& rig);
 
 struct EstimatorState {
   TimeNs stamp_ns = 0;  // base clock

@@ -2,8 +2,8 @@
 // src/core/factors.
 #pragma once
 
-#include "../common/tangent_jet.h"
 #include "mvis/factors/base_motion.h"
+#include "../common/tangent_jet.h"
 
 namespace mvis {
 

@@ -5,8 +5,8 @@
 //   dR(x) = dR Exp(J_theta (x - x0)),  dp(x) = dp + J_p (x - x0),  dv(x) = dv + J_v (x - x0).
 #pragma once
 
-#include "../common/tangent_jet.h"
 #include "mvis/inertial/imu_reintegration.h"
+#include "../common/tangent_jet.h"
 
 namespace mvis {
 

@@ -1,9 +1,9 @@
 #include "mvis/factors/gyro_factor.h"
 
-#include "../common/tangent_jet.h"
 #include "base_motion_shift.h"
 #include "delta_correction.h"
 #include "mvis/factors/state_blocks.h"
+#include "../common/tangent_jet.h"
 #include "whitening.h"
 
 namespace mvis {

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <mutex>
 
-#include "../common/tangent_jet.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/common/lie.h"
 #include "mvis/factors/state_blocks.h"
+#include "../common/tangent_jet.h"
 
 namespace mvis {
 namespace {

@@ -1,37 +1,76 @@
-// Auxiliary IMUs and gyroscopes in the window (report Sec. 3): their readings, chains of states,
-// initialization (Eq. 40-43), factors and calibration blocks.
-#include "estimator_impl.h"
-#include "mvis/factors/rotation_prior_factor.h"
+#include "aux_sensors.h"
+
+#include <ceres/normal_prior.h>
+
+#include <sstream>
+
+#include "imu_buffer.h"
+#include "mvis/common/lie.h"
+#include "mvis/factors/aux_imu_factor.h"
+#include "mvis/factors/gyro_factor.h"
 
 namespace mvis {
-namespace {
+namespace estimator_internal {
 
-// The extrinsic rotation R_AI and translation p_AI of T_i_b (p_A = R_AI p_I + p_AI).
-void extrinsicOf(const AuxSensor& a, Eigen::Matrix3d* R_AI, Eigen::Vector3d* p_AI) {
-  if (a.gyro) {
-    *R_AI = poseRotation(a.rotation).toRotationMatrix();
-    p_AI->setZero();
-  } else {
-    *R_AI = poseRotation(a.extrinsic).toRotationMatrix();
-    *p_AI = posePosition(a.extrinsic);
+AuxSensors::AuxSensors(const Rig& rig, const EstimatorOptions& options, Window& window,
+                       CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
+                       ObservabilityMonitor& monitor, EstimatorCounters& counters)
+    : rig_(rig),
+      options_(options),
+      window_(window),
+      calibration_(calibration),
+      intrinsics_(intrinsics),
+      monitor_(monitor),
+      counters_(counters) {
+  for (std::size_t i = 1; i < rig.inertial.size(); ++i) {
+    auto a = std::make_unique<Stream>();
+    a->sensor = i;
+    a->gyro = rig.inertial[i].type == InertialType::kGyroscope;
+    a->block_size = a->gyro ? 3 : AuxImuFactor::auxBlockSize(options.aux_imu_model);
+    a->cubic_interval_ns = cubicIntervalNs(rig.inertial[i], options.imu_integration_step_s);
+    streams_.push_back(std::move(a));
   }
 }
 
-}  // namespace
+std::string AuxSensors::takeWarning() {
+  std::string out;
+  out.swap(warning_);
+  return out;
+}
 
-Status Estimator::Impl::addAuxReading(std::size_t sensor, const ImuMeasurement& m) {
-  AuxSensor& a = *aux[sensor - 1];
-  const InertialSensor& config = rig.inertial[sensor];
+void AuxSensors::clear() {
+  for (auto& a : streams_) {
+    a->readings.clear();
+    a->last = std::numeric_limits<TimeNs>::min();
+    a->stopped = false;
+  }
+  warning_.clear();
+}
+
+void AuxSensors::leaving(const State& oldest, std::vector<double*>* leaving) {
+  for (std::size_t i = 0; i < streams_.size(); ++i) {
+    AuxState* as = oldest.aux[i].get();
+    if (as == nullptr) continue;
+    leaving->push_back(as->x);
+    // The last estimate of the sensor's biases, for a chain that starts later.
+    streams_[i]->bias_gyro = Eigen::Vector3d(streams_[i]->biasGyro(as));
+    if (!streams_[i]->gyro) streams_[i]->bias_accel = Eigen::Vector3d(streams_[i]->biasAccel(as));
+  }
+}
+
+Status AuxSensors::add(std::size_t sensor, const ImuMeasurement& m, bool in_window) {
+  Stream& a = *streams_[sensor - 1];
+  const InertialSensor& config = rig_.inertial[sensor];
   ImuMeasurement r = m;
   if (a.gyro) r.accel.setZero();  // a gyroscope's messages carry no acceleration
   if (!r.gyro.allFinite() || !r.accel.allFinite()) {
-    ++counters.aux_dropped;
+    ++counters_.aux_dropped;
     return Status::Error(config.name + ": non-finite reading dropped");
   }
-  r = imu_corrections[sensor].apply(r, a.gyro);
+  r = intrinsics_.arrivalCorrection(sensor).apply(r, a.gyro);
   if (a.last != std::numeric_limits<TimeNs>::min() && r.stamp_ns <= a.last) {
     if (r.stamp_ns >= a.last - kNsPerSecond) {
-      ++counters.aux_dropped;
+      ++counters_.aux_dropped;
       return Status::Error(config.name + ": reading out of order or repeated, dropped");
     }
     // Time jumped back (a bag restarted): the base IMU's jump resets the estimator; this
@@ -54,51 +93,50 @@ Status Estimator::Impl::addAuxReading(std::size_t sensor, const ImuMeasurement& 
   const std::size_t cap =
       std::max<std::size_t>(2000, static_cast<std::size_t>(20.0 * config.update_rate));
   while (a.readings.size() > cap) a.readings.pop_front();
-  if (initialized) extendAux(a);
+  if (in_window) extend(a);
   return out;
 }
 
-void Estimator::Impl::extendAux() {
-  for (auto& a : aux) extendAux(*a);
+void AuxSensors::extend() {
+  for (auto& a : streams_) extend(*a);
 }
 
-std::shared_ptr<ImuPreintegration> Estimator::Impl::preintegrateAux(
-    const AuxSensor& a, TimeNs tau_a, TimeNs tau_b, const Eigen::Vector3d& bg,
-    const Eigen::Vector3d& ba) const {
+std::shared_ptr<ImuPreintegration> AuxSensors::preintegrate(const Stream& a, TimeNs tau_a,
+                                                            TimeNs tau_b, const Eigen::Vector3d& bg,
+                                                            const Eigen::Vector3d& ba) const {
   if (a.readings.empty() || tau_b <= tau_a) return nullptr;
   if (a.readings.front().stamp_ns > tau_a || a.readings.back().stamp_ns < tau_b) return nullptr;
   // The cubic over the last interval needs the reading after the one past tau_b.
   const std::size_t n = a.readings.size();
-  if (integrationIntervalNs(a.sensor) > 0 && (n < 2 || a.readings[n - 2].stamp_ns < tau_b))
-    return nullptr;
-  const std::vector<ImuMeasurement> readings =
-      readingsBetween(a.readings, tau_a, tau_b, fromSeconds(options.imu_integration_step_s),
-                      integrationIntervalNs(a.sensor));
-  const TimeNs max_gap = fromSeconds(options.aux_max_gap_s);
+  if (a.cubic_interval_ns > 0 && (n < 2 || a.readings[n - 2].stamp_ns < tau_b)) return nullptr;
+  const std::vector<ImuMeasurement> readings = readingsBetween(
+      a.readings, tau_a, tau_b, fromSeconds(options_.imu_integration_step_s), a.cubic_interval_ns);
+  const TimeNs max_gap = fromSeconds(options_.aux_max_gap_s);
   for (const auto& r : readings) {
     if (r.span_ns > max_gap) return nullptr;
   }
-  const InertialSensor& config = rig.inertial[a.sensor];
+  const InertialSensor& config = rig_.inertial[a.sensor];
   const double max_interval = config.update_rate > 0.0 ? 2.5 / config.update_rate : 0.0;
   auto pre = std::make_shared<ImuPreintegration>(config.noise, bg, ba, max_interval);
   for (const auto& r : readings) pre->add(r);
   return pre;
 }
 
-void Estimator::Impl::extendAux(AuxSensor& a) {
-  if (!initialized || states.size() < 2) return;
+void AuxSensors::extend(Stream& a) {
+  const auto& states = window_.states();
+  if (states.size() < 2) return;
   const std::size_t idx = a.sensor - 1;
-  const TimeNs td = fromSeconds(a.time_offset[0]);
+  const TimeNs td = fromSeconds(calibration_.aux(idx).time_offset[0]);
   // A sensor whose readings stopped leaves the window, once, with a warning.
   const TimeNs behind = states.back()->t - td - a.last;
   if (!a.stopped && a.last != std::numeric_limits<TimeNs>::min() &&
-      behind > fromSeconds(options.aux_timeout_s)) {
+      behind > fromSeconds(options_.aux_timeout_s)) {
     a.stopped = true;
-    ++counters.aux_dropouts;
+    ++counters_.aux_dropouts;
     std::ostringstream s;
-    s << rig.inertial[a.sensor].name << ": no readings for " << toSeconds(behind)
+    s << rig_.inertial[a.sensor].name << ": no readings for " << toSeconds(behind)
       << " s; it leaves the window until they return";
-    warning = s.str();
+    warning_ = s.str();
   }
   std::size_t newest = states.size();  // the newest window state with a state of a
   for (std::size_t k = states.size(); k-- > 0;) {
@@ -110,7 +148,7 @@ void Estimator::Impl::extendAux(AuxSensor& a) {
   if (newest < states.size()) {
     for (std::size_t k = newest + 1; k < states.size(); ++k) {
       if (!states[k - 1]->aux[idx]) break;
-      appendAuxState(a, k);
+      append(a, k);
       if (!states[k]->aux[idx]) break;  // readings do not reach it yet
     }
     return;
@@ -119,28 +157,28 @@ void Estimator::Impl::extendAux(AuxSensor& a) {
   auto tauOf = [&](std::size_t k) { return states[k]->t - td; };
   const Eigen::Vector3d bg = a.bias_gyro, ba = a.bias_accel;
   std::size_t k0 = 0;
-  while (k0 + 1 < states.size() && !preintegrateAux(a, tauOf(k0), tauOf(k0 + 1), bg, ba)) ++k0;
+  while (k0 + 1 < states.size() && !preintegrate(a, tauOf(k0), tauOf(k0 + 1), bg, ba)) ++k0;
   if (k0 + 1 >= states.size()) return;
   std::size_t k1 = k0 + 1;
-  while (k1 + 1 < states.size() && preintegrateAux(a, tauOf(k1), tauOf(k1 + 1), bg, ba)) ++k1;
-  startAuxChain(a, k0, k1);
+  while (k1 + 1 < states.size() && preintegrate(a, tauOf(k1), tauOf(k1 + 1), bg, ba)) ++k1;
+  startChain(a, k0, k1);
 }
 
-void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1) {
+void AuxSensors::startChain(Stream& a, std::size_t k0, std::size_t k1) {
   const std::size_t idx = a.sensor - 1;
-  const InertialSensor& config = rig.inertial[a.sensor];
-  const double td = a.time_offset[0];
+  const InertialSensor& config = rig_.inertial[a.sensor];
+  const double td = calibration_.aux(idx).time_offset[0];
   const TimeNs td_ns = fromSeconds(td);
   Eigen::Matrix3d R_AI;
   Eigen::Vector3d p_AI;
-  extrinsicOf(a, &R_AI, &p_AI);
-  const Eigen::Vector3d g(gravity);
+  calibration_.aux(idx).extrinsicParts(&R_AI, &p_AI);
+  const Eigen::Vector3d g(calibration_.gravity());
   const std::size_t n = k1 - k0 + 1;
   std::vector<TimeNs> tau(n);
   std::vector<Eigen::Matrix3d> R_A(n);
   std::vector<Eigen::Vector3d> p_A(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const State& s = *states[k0 + i];
+    const State& s = window_.state(k0 + i);
     tau[i] = s.t - td_ns;
     R_A[i] = poseRotation(s.pose).toRotationMatrix() * R_AI.transpose();
     p_A[i] = posePosition(s.pose) - R_A[i] * p_AI;
@@ -150,11 +188,11 @@ void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1
   // the rotation noise of each and the bias prior as weights.
   const double sg = config.noise.gyroscope_noise_density;
   Eigen::Matrix3d N =
-      Eigen::Matrix3d::Identity() / (options.bias_gyro_prior * options.bias_gyro_prior);
+      Eigen::Matrix3d::Identity() / (options_.bias_gyro_prior * options_.bias_gyro_prior);
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
   using P = ImuPreintegration;
   for (std::size_t i = 0; i + 1 < n; ++i) {
-    auto pre = preintegrateAux(a, tau[i], tau[i + 1], a.bias_gyro, a.bias_accel);
+    auto pre = preintegrate(a, tau[i], tau[i + 1], a.bias_gyro, a.bias_accel);
     const Eigen::Matrix3d H = pre->jacobian().block<3, 3>(P::kRotation, P::kBiasGyro);
     const Eigen::Vector3d y =
         lie::logSO3(pre->deltaR().toRotationMatrix().transpose() * R_A[i].transpose() * R_A[i + 1]);
@@ -170,18 +208,17 @@ void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1
   if (!a.gyro) {
     const Eigen::Vector3d p_IA = -R_AI.transpose() * p_AI;
     for (std::size_t i = 0; i < n; ++i) {
-      const State& s = *states[k0 + i];
+      const State& s = window_.state(k0 + i);
       const Eigen::Vector3d w_I =
-          R_AI.transpose() *
-          (readingIn(a.readings, tau[i], integrationIntervalNs(a.sensor)).gyro - bg);
+          R_AI.transpose() * (readingIn(a.readings, tau[i], a.cubic_interval_ns).gyro - bg);
       v_A[i] = Eigen::Vector3d(s.speed_bias) + poseRotation(s.pose) * w_I.cross(p_IA);
     }
     const double sa = config.noise.accelerometer_noise_density;
     Eigen::Matrix3d Na =
-        Eigen::Matrix3d::Identity() / (options.bias_accel_prior * options.bias_accel_prior);
+        Eigen::Matrix3d::Identity() / (options_.bias_accel_prior * options_.bias_accel_prior);
     Eigen::Vector3d rhs_a = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i + 1 < n; ++i) {
-      auto pre = preintegrateAux(a, tau[i], tau[i + 1], bg, a.bias_accel);
+      auto pre = preintegrate(a, tau[i], tau[i + 1], bg, a.bias_accel);
       const double T = pre->duration();
       const Eigen::Matrix3d Rt = R_A[i].transpose();
       const Eigen::Vector3d yv = Rt * (v_A[i + 1] - v_A[i] - g * T) - pre->deltaV();
@@ -202,37 +239,38 @@ void Estimator::Impl::startAuxChain(AuxSensor& a, std::size_t k0, std::size_t k1
     if (a.block_size == 9) Eigen::Map<Eigen::Vector3d>{st->x} = v_A[i];
     Eigen::Map<Eigen::Vector3d>{a.biasGyro(st.get())} = bg;
     if (!a.gyro) Eigen::Map<Eigen::Vector3d>{a.biasAccel(st.get())} = ba;
-    states[k0 + i]->aux[idx] = std::move(st);
-    problem->AddParameterBlock(states[k0 + i]->aux[idx]->x, a.block_size);
+    State& s = window_.state(k0 + i);
+    s.aux[idx] = std::move(st);
+    window_.problem()->AddParameterBlock(s.aux[idx]->x, a.block_size);
   }
   for (std::size_t i = 0; i + 1 < n; ++i) {
-    addAuxFactor(a, k0 + i, preintegrateAux(a, tau[i], tau[i + 1], bg, ba));
+    addFactor(a, k0 + i, preintegrate(a, tau[i], tau[i + 1], bg, ba));
   }
   // A weak prior on the first state: what a short stretch of motion cannot pin down.
   Eigen::VectorXd inv_std(a.block_size);
   int at = 0;
   if (a.block_size == 9) {
-    inv_std.head<3>().setConstant(1.0 / options.aux_velocity_prior);
+    inv_std.head<3>().setConstant(1.0 / options_.aux_velocity_prior);
     at = 3;
   }
-  inv_std.segment<3>(at).setConstant(1.0 / options.bias_gyro_prior);
-  if (!a.gyro) inv_std.segment<3>(at + 3).setConstant(1.0 / options.bias_accel_prior);
-  AuxState* first = states[k0]->aux[idx].get();
+  inv_std.segment<3>(at).setConstant(1.0 / options_.bias_gyro_prior);
+  if (!a.gyro) inv_std.segment<3>(at + 3).setConstant(1.0 / options_.bias_accel_prior);
+  AuxState* first = window_.state(k0).aux[idx].get();
   const Eigen::VectorXd mean = Eigen::Map<const Eigen::VectorXd>(first->x, a.block_size);
-  addRecord(states[k0].get(), new ceres::NormalPrior(inv_std.asDiagonal(), mean), nullptr,
-            {first->x});
-  ++counters.aux_starts;
+  window_.addRecord(&window_.state(k0), new ceres::NormalPrior(inv_std.asDiagonal(), mean), nullptr,
+                    {first->x});
+  ++counters_.aux_starts;
 }
 
-void Estimator::Impl::appendAuxState(AuxSensor& a, std::size_t k) {
+void AuxSensors::append(Stream& a, std::size_t k) {
   const std::size_t idx = a.sensor - 1;
-  AuxState* prev = states[k - 1]->aux[idx].get();
-  const double td = a.time_offset[0];
-  const TimeNs tau = states[k]->t - fromSeconds(td);
+  AuxState* prev = window_.state(k - 1).aux[idx].get();
+  const double td = calibration_.aux(idx).time_offset[0];
+  const TimeNs tau = window_.state(k).t - fromSeconds(td);
   const Eigen::Vector3d bg(a.biasGyro(prev));
   const Eigen::Vector3d ba = a.gyro ? Eigen::Vector3d::Zero() : Eigen::Vector3d(a.biasAccel(prev));
-  const TimeNs prev_tau = states[k - 1]->t - fromSeconds(prev->td0);
-  auto pre = preintegrateAux(a, prev_tau, tau, bg, ba);
+  const TimeNs prev_tau = window_.state(k - 1).t - fromSeconds(prev->td0);
+  auto pre = preintegrate(a, prev_tau, tau, bg, ba);
   if (!pre) return;
   auto st = std::make_unique<AuxState>();
   st->td0 = td;
@@ -241,111 +279,72 @@ void Estimator::Impl::appendAuxState(AuxSensor& a, std::size_t k) {
     // The velocity as the readings predict it from the previous aux pose.
     Eigen::Matrix3d R_AI;
     Eigen::Vector3d p_AI;
-    extrinsicOf(a, &R_AI, &p_AI);
-    const State& sp = *states[k - 1];
+    calibration_.aux(idx).extrinsicParts(&R_AI, &p_AI);
+    const State& sp = window_.state(k - 1);
     const Eigen::Quaterniond q_A(poseRotation(sp.pose).toRotationMatrix() * R_AI.transpose());
     const Eigen::Vector3d p_A = posePosition(sp.pose) - q_A * p_AI;
     Eigen::Quaterniond q;
     Eigen::Vector3d p, v;
-    pre->predict(q_A, p_A, Eigen::Vector3d(prev->x), Eigen::Vector3d(gravity), &q, &p, &v);
+    pre->predict(q_A, p_A, Eigen::Vector3d(prev->x), Eigen::Vector3d(calibration_.gravity()), &q,
+                 &p, &v);
     Eigen::Map<Eigen::Vector3d>{st->x} = v;
   }
-  states[k]->aux[idx] = std::move(st);
-  problem->AddParameterBlock(states[k]->aux[idx]->x, a.block_size);
-  addAuxFactor(a, k - 1, pre);
+  State& s = window_.state(k);
+  s.aux[idx] = std::move(st);
+  window_.problem()->AddParameterBlock(s.aux[idx]->x, a.block_size);
+  addFactor(a, k - 1, pre);
 }
 
-void Estimator::Impl::addAuxFactor(AuxSensor& a, std::size_t k,
-                                   std::shared_ptr<const ImuPreintegration> pre) {
+void AuxSensors::addFactor(Stream& a, std::size_t k, std::shared_ptr<const ImuPreintegration> pre) {
   const std::size_t idx = a.sensor - 1;
-  State* si = states[k].get();
-  State* sj = states[k + 1].get();
+  AuxCalibration& cal = calibration_.aux(idx);
+  State* si = &window_.state(k);
+  State* sj = &window_.state(k + 1);
   AuxState* ai = si->aux[idx].get();
   AuxState* aj = sj->aux[idx].get();
-  addReadingMoments(a.sensor, sj->t, pre->samples());
-  double* intrinsics = imuIntrinsics(a.sensor);
-  const IntrinsicsLinearization mode = options.imu_intrinsics_linearization;
+  monitor_.addReadingMoments(a.sensor, sj->t, pre->samples());
+  double* intrinsics = intrinsics_.values(a.sensor);
+  const IntrinsicsLinearization mode = options_.imu_intrinsics_linearization;
   if (a.gyro) {
-    std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,   sj->speed_bias,
-                                   ai->x,    aj->x,          a.rotation, a.time_offset};
+    std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,     sj->speed_bias,
+                                   ai->x,    aj->x,          cal.rotation, cal.time_offset};
     ceres::CostFunction* cost = nullptr;
     if (intrinsics != nullptr) {
       cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion, mode,
-                            imu_intrinsics[a.sensor]->initial);
+                            intrinsics_.block(a.sensor)->initial);
       blocks.push_back(intrinsics);
     } else {
       cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion);
     }
-    addRecord(si, cost, nullptr, std::move(blocks));
+    window_.addRecord(si, cost, nullptr, std::move(blocks));
     return;
   }
-  std::vector<double*> blocks = {si->pose, si->speed_bias, sj->pose,      sj->speed_bias, ai->x,
-                                 aj->x,    a.extrinsic,    a.time_offset, gravity};
+  std::vector<double*> blocks = {si->pose,       si->speed_bias,  sj->pose,
+                                 sj->speed_bias, ai->x,           aj->x,
+                                 cal.extrinsic,  cal.time_offset, calibration_.gravity()};
   ceres::CostFunction* cost = nullptr;
   if (intrinsics != nullptr) {
-    cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
-                            sj->motion, imu_intrinsics[a.sensor]->frame, mode,
-                            imu_intrinsics[a.sensor]->initial);
+    cost = new AuxImuFactor(options_.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
+                            sj->motion, intrinsics_.block(a.sensor)->frame, mode,
+                            intrinsics_.block(a.sensor)->initial);
     blocks.push_back(intrinsics);
   } else {
-    cost = new AuxImuFactor(options.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
+    cost = new AuxImuFactor(options_.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
                             sj->motion);
   }
-  addRecord(si, cost, nullptr, std::move(blocks));
+  window_.addRecord(si, cost, nullptr, std::move(blocks));
 }
 
-void Estimator::Impl::addAuxCalibrationBlocks() {
-  for (auto& ap : aux) {
-    AuxSensor& a = *ap;
-    const InertialSensor& config = rig.inertial[a.sensor];
-    if (a.gyro) {
-      problem->AddParameterBlock(a.rotation, kRotationSize, &rotation_manifold);
-    } else {
-      problem->AddParameterBlock(a.extrinsic, kPoseSize, &pose_manifold);
-    }
-    problem->AddParameterBlock(a.time_offset, 1);
-    if (!options.estimate_aux_extrinsics || heldByOption(config.name, "extrinsic")) {
-      problem->SetParameterBlockConstant(a.extrinsicBlock());
-    }
-    if (!options.estimate_aux_time_offsets || heldByOption(config.name, "time_offset")) {
-      problem->SetParameterBlockConstant(a.time_offset);
-    }
-    // Priors from the configuration's *_std keys, or the options' defaults.
-    const auto& sd = config.std;
-    a.prior = estimator_internal::calibrationPrior(
-        options.aux_rotation_prior_rad, options.aux_translation_prior_m,
-        options.aux_time_offset_prior_s, sd ? &sd->rotation : nullptr,
-        sd ? &sd->translation : nullptr, sd ? sd->time_offset : 0.0);
-    const estimator_internal::CalibrationPrior& prior = a.prior;
-    if (a.gyro) {
-      problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), prior.rotation),
-                                nullptr, a.rotation);
-    } else {
-      problem->AddResidualBlock(
-          PosePriorFactor::fromStd(poseToSE3(a.extrinsic), prior.rotation, prior.translation),
-          nullptr, a.extrinsic);
-    }
-    problem->AddResidualBlock(
-        new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / prior.time_offset),
-                               Eigen::Matrix<double, 1, 1>(a.time_offset[0])),
-        nullptr, a.time_offset);
-  }
-}
-
-void Estimator::Impl::trimAuxBuffers() {
-  // Readings are needed from the oldest window state (or initialization frame) on: a chain may
-  // start at any window state.
-  TimeNs from = std::numeric_limits<TimeNs>::max();
-  if (!states.empty()) from = states.front()->t;
-  if (!init.empty()) from = std::min(from, init.front().t);
-  for (auto& a : aux) {
+void AuxSensors::trim(TimeNs from) {
+  for (auto& a : streams_) {
     if (a->readings.empty()) continue;
     TimeNs keep = from == std::numeric_limits<TimeNs>::max()
                       ? a->readings.back().stamp_ns - 2 * kNsPerSecond
-                      : from - fromSeconds(a->time_offset[0]);
+                      : from - fromSeconds(calibration_.aux(a->sensor - 1).time_offset[0]);
     keep -= fromSeconds(0.05);
     while (a->readings.size() > 2 && a->readings[1].stamp_ns < keep) a->readings.pop_front();
   }
 }
 
+}  // namespace estimator_internal
 }  // namespace mvis

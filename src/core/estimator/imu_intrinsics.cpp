@@ -1,29 +1,30 @@
-// IMU intrinsics as estimator states (report Eq. 1-4, Sec. 2.2): blocks, priors, covariance and
-// output. The factors that use them are in estimator_window.cpp and estimator_aux.cpp.
-#include <ceres/manifold.h>
+#include "imu_intrinsics.h"
 
-#include "estimator_impl.h"
+#include <ceres/manifold.h>
+#include <ceres/normal_prior.h>
+
+#include "mvis/common/lie.h"
 
 namespace mvis {
+namespace estimator_internal {
 namespace {
 
 using L = ImuIntrinsicsLayout;
 
 }  // namespace
 
-void Estimator::Impl::initImuIntrinsics() {
-  reading_moments.resize(rig.inertial.size());
+ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions& options) {
   for (const auto& sensor : rig.inertial) {
     const bool gyro = sensor.type == InertialType::kGyroscope;
     const bool estimated = options.estimate_imu_intrinsics && sensor.model == ImuModel::kRpng &&
-                           !heldByOption(sensor.name, "intrinsics");
+                           !heldByOption(options, sensor.name, "intrinsics");
     if (!estimated) {
-      imu_corrections.emplace_back(sensor.intrinsics);
-      imu_intrinsics.push_back(nullptr);
+      arrival_.emplace_back(sensor.intrinsics);
+      blocks_.push_back(nullptr);
       continue;
     }
     // The readings stay raw: the factors apply the current intrinsics.
-    imu_corrections.emplace_back(ImuIntrinsics());
+    arrival_.emplace_back(ImuIntrinsics());
     auto b = std::make_unique<ImuIntrinsicsBlock>();
     intrinsicsToBlock(sensor.intrinsics, b->x);
     std::copy(b->x, b->x + kImuIntrinsicsSize, b->initial);
@@ -52,7 +53,7 @@ void Estimator::Impl::initImuIntrinsics() {
     }
     std::vector<int> held;
     const bool gravity =
-        options.estimate_gravity_sensitivity && !heldByOption(sensor.name, "gravity_sensitivity");
+        options.estimate_gravity_sensitivity && !heldByOption(options, sensor.name, "gravity_sensitivity");
     for (int k = 0; k < kImuIntrinsicsSize; ++k) {
       const bool tg = k >= L::kTg && k < L::kTg + 9;
       if ((gyro && k >= L::kDa) || (tg && !gravity)) {
@@ -63,13 +64,13 @@ void Estimator::Impl::initImuIntrinsics() {
     }
     if (!held.empty())
       b->manifold = std::make_unique<ceres::SubsetManifold>(kImuIntrinsicsSize, held);
-    imu_intrinsics.push_back(std::move(b));
+    blocks_.push_back(std::move(b));
   }
 }
 
-void Estimator::Impl::addImuIntrinsicsBlocks() {
+void ImuIntrinsicsBlocks::addTo(ceres::Problem* problem) {
   using Vector24d = Eigen::Matrix<double, kImuIntrinsicsSize, 1>;
-  for (auto& b : imu_intrinsics) {
+  for (auto& b : blocks_) {
     if (!b) continue;
     problem->AddParameterBlock(b->x, kImuIntrinsicsSize, b->manifold.get());
     problem->AddResidualBlock(
@@ -79,28 +80,31 @@ void Estimator::Impl::addImuIntrinsicsBlocks() {
   }
 }
 
-void Estimator::Impl::refreshBaseCorrection() {
-  if (imu_intrinsics[0]) {
-    base_correction =
-        ImuCorrection(intrinsicsFromBlock(imu_intrinsics[0]->x, imu_intrinsics[0]->frame.R0));
+void ImuIntrinsicsBlocks::refreshBase() {
+  if (blocks_[0]) base_ = ImuCorrection(intrinsicsFromBlock(blocks_[0]->x, blocks_[0]->frame.R0));
+}
+
+bool ImuIntrinsicsBlocks::isBlock(const double* x) const {
+  for (const auto& b : blocks_) {
+    if (b && b->x == x) return true;
+  }
+  return false;
+}
+
+void ImuIntrinsicsBlocks::covarianceBlocks(
+    const ceres::Problem& problem,
+    std::vector<std::pair<const double*, const double*>>* blocks) const {
+  for (const auto& b : blocks_) {
+    if (b && !problem.IsParameterBlockConstant(b->x)) blocks->emplace_back(b->x, b->x);
   }
 }
-
-ImuMeasurement Estimator::Impl::propagationReading(const ImuMeasurement& m) const {
-  return base_correction.apply(m, false);
-}
-
-void Estimator::Impl::propagationBiases(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
-                                        Eigen::Vector3d* bg_out, Eigen::Vector3d* ba_out) const {
-  base_correction.biases(bg, ba, bg_out, ba_out);
-}
-
-void Estimator::Impl::imuIntrinsicsCovariance(const ceres::Covariance& cov) {
-  for (auto& b : imu_intrinsics) {
+void ImuIntrinsicsBlocks::updateCovariance(const ceres::Problem& problem,
+                                           const TangentCovariance& tangent) {
+  for (auto& b : blocks_) {
     // A block held whole (constant) is not in the computation: it keeps what it had.
-    if (!b || problem->IsParameterBlockConstant(b->x)) continue;
+    if (!b || problem.IsParameterBlockConstant(b->x)) continue;
     // In the block's own tangent (held directions with the variance they keep), then ambient.
-    const Eigen::MatrixXd C = tangentCovariance(cov, b->x);
+    const Eigen::MatrixXd C = tangent(b->x);
     const std::vector<int>& idx = b->free;
     Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize> A =
         Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize>::Zero();
@@ -111,9 +115,9 @@ void Estimator::Impl::imuIntrinsicsCovariance(const ceres::Covariance& cov) {
   }
 }
 
-void Estimator::Impl::writeImuIntrinsics(Rig* out) const {
-  for (std::size_t i = 0; i < imu_intrinsics.size(); ++i) {
-    const ImuIntrinsicsBlock* b = imu_intrinsics[i].get();
+void ImuIntrinsicsBlocks::write(Rig* out) const {
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    const ImuIntrinsicsBlock* b = blocks_[i].get();
     if (b == nullptr) continue;
     InertialSensor& s = out->inertial[i];
     s.intrinsics = intrinsicsFromBlock(b->x, b->frame.R0);
@@ -155,4 +159,32 @@ void Estimator::Impl::writeImuIntrinsics(Rig* out) const {
   }
 }
 
+Eigen::VectorXd ImuIntrinsicsBlocks::latestStd(const double* x) const {
+  for (const auto& b : blocks_) {
+    if (!b || x != b->x) continue;
+    Eigen::VectorXd sd(b->free.size());
+    for (std::size_t k = 0; k < b->free.size(); ++k) {
+      const int e = b->free[k];
+      sd[k] = b->covariance && (*b->covariance)(e, e) > 0.0 ? std::sqrt((*b->covariance)(e, e))
+                                                            : b->prior_std[e];
+    }
+    return sd;
+  }
+  return Eigen::VectorXd();
+}
+
+std::optional<Eigen::MatrixXd> ImuIntrinsicsBlocks::latestCovariance(const double* x) const {
+  for (const auto& b : blocks_) {
+    if (!b || x != b->x || !b->covariance) continue;
+    const auto n = static_cast<int>(b->free.size());
+    Eigen::MatrixXd C(n, n);
+    for (int r = 0; r < n; ++r) {
+      for (int c = 0; c < n; ++c) C(r, c) = (*b->covariance)(b->free[r], b->free[c]);
+    }
+    return C;
+  }
+  return std::nullopt;
+}
+
+}  // namespace estimator_internal
 }  // namespace mvis

@@ -1,11 +1,14 @@
-// Degenerate-motion awareness (report Sec. 5.1, Table 2; observability.h): which calibration
-// directions the recent motion leaves unobservable, checked before every solve, and holding them.
+#include "observability_monitor.h"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <algorithm>
 #include <cstdio>
+#include <sstream>
 
-#include "estimator_impl.h"
+#include "mvis/common/lie.h"
 #include "mvis/estimator/observability.h"
+#include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
 
@@ -35,23 +38,8 @@ std::string UnobservableCalibration::text() const {
   return s.str();
 }
 
+namespace estimator_internal {
 namespace {
-
-// One calibrated quantity: rows [offset, offset + size) of its block's tangent, and the
-// information the recent motion gives it (tangent coordinates).
-struct Quantity {
-  std::string sensor, name;
-  double* block;
-  int offset, size;
-  Eigen::VectorXd prior_std;
-  Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
-  Eigen::MatrixXd information;
-  // IMU intrinsics only: the channel ("gyro", "gravity", "accel"), the block's tangent rows
-  // (instead of offset..offset+size) and their ambient entries in the intrinsics block.
-  std::string symbol = {};
-  std::vector<int> rows = {};
-  std::vector<int> elements = {};
-};
 
 // The intrinsics element a weak direction mostly moves (ambient entries `elements`), as the
 // report writes them: dw12 (Dw row 1, column 2), da33, tg21, and "theta_y" for the
@@ -77,14 +65,48 @@ std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd&
 
 }  // namespace
 
-void Estimator::Impl::addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vector3d& bias_gyro) {
+// One calibrated quantity: rows [offset, offset + size) of its block's tangent, and the
+// information the recent motion gives it (tangent coordinates).
+struct ObservabilityMonitor::Quantity {
+  std::string sensor, name;
+  const double* block;
+  int offset, size;
+  Eigen::VectorXd prior_std;
+  Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
+  Eigen::MatrixXd information;
+  // IMU intrinsics only: the channel ("gyro", "gravity", "accel"), the block's tangent rows
+  // (instead of offset..offset+size) and their ambient entries in the intrinsics block.
+  std::string symbol = {};
+  std::vector<int> rows = {};
+  std::vector<int> elements = {};
+};
+
+ObservabilityMonitor::ObservabilityMonitor(const Rig& rig, const EstimatorOptions& options,
+                                           const CalibrationBlocks& calibration,
+                                           const ImuIntrinsicsBlocks& intrinsics)
+    : rig_(rig),
+      options_(options),
+      calibration_(calibration),
+      intrinsics_(intrinsics),
+      moments_(rig.inertial.size()) {}
+
+void ObservabilityMonitor::clear() {
+  unobservable_.clear();
+  uninformative_.clear();
+  motion_.clear();
+  for (auto& m : moments_) m.clear();
+  holds_.clear();
+}
+
+void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
+                                     const std::vector<ImuMeasurement>& readings,
+                                     const Eigen::Vector3d& bias_gyro) {
   // Chunks of about 25 ms: their mean rates, and angular accelerations between them. The
   // gyroscope's noise makes each alpha noisy (variance s2 per axis), which would add 2 s2 I to
   // hat(alpha)^T hat(alpha) on average: it is taken out again, or noise alone would look like
   // rotation about every axis.
-  const std::vector<ImuMeasurement> readings = imuBetween(a, b);
   constexpr double kChunk = 0.025;
-  const double density = rig.inertial[0].noise.gyroscope_noise_density;
+  const double density = rig_.inertial[0].noise.gyroscope_noise_density;
   std::vector<std::pair<double, Eigen::Vector3d>> chunks;  // (mid time [s], mean rate)
   double t0 = toSeconds(readings.front().stamp_ns - a), sum_t = 0.0;
   Eigen::Vector3d sum_w = Eigen::Vector3d::Zero();
@@ -116,16 +138,14 @@ void Estimator::Impl::addMotionInformation(TimeNs a, TimeNs b, const Eigen::Vect
     info.rotation += dt * lie::hat(w).transpose() * lie::hat(w);
     info.time_offset += dt * std::max(alpha.squaredNorm() - 3.0 * s2, 0.0);
   }
-  motion_information.push_back(info);
-  const TimeNs horizon = fromSeconds(options.observability_horizon_s);
-  while (!motion_information.empty() && motion_information.front().t < b - horizon) {
-    motion_information.pop_front();
-  }
+  motion_.push_back(info);
+  const TimeNs horizon = fromSeconds(options_.observability_horizon_s);
+  while (!motion_.empty() && motion_.front().t < b - horizon) motion_.pop_front();
 }
 
-void Estimator::Impl::addReadingMoments(std::size_t i, TimeNs t,
-                                        const std::vector<ImuMeasurement>& readings) {
-  if (!imu_intrinsics[i] || readings.size() < 2) return;
+void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
+                                             const std::vector<ImuMeasurement>& readings) {
+  if (!intrinsics_.block(i) || readings.size() < 2) return;
   ReadingMoments m;
   m.t = t;
   for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
@@ -141,46 +161,102 @@ void Estimator::Impl::addReadingMoments(std::size_t i, TimeNs t,
     m.aa += a * a.transpose() * dt;
     m.wa += w * a.transpose() * dt;
   }
-  auto& q = reading_moments[i];
+  auto& q = moments_[i];
   q.push_back(m);
-  const TimeNs horizon = fromSeconds(options.observability_horizon_s);
+  const TimeNs horizon = fromSeconds(options_.observability_horizon_s);
   while (!q.empty() && q.front().t < t - horizon) q.pop_front();
 }
 
-void Estimator::Impl::checkObservability() {
-  unobservable.clear();
-  uninformative.clear();
+void ObservabilityMonitor::check(ceres::Problem* problem) {
+  unobservable_.clear();
+  uninformative_.clear();
   const bool off =
-      options.observability_ratio <= 0.0 && options.imu_intrinsics_observability_ratio <= 0.0;
-  if (off || motion_information.empty()) {
-    applyHolds();
+      options_.observability_ratio <= 0.0 && options_.imu_intrinsics_observability_ratio <= 0.0;
+  if (off || motion_.empty()) {
+    applyHolds(problem);
     return;
   }
+  std::vector<Quantity> quantities;
+  spatialQuantities(*problem, &quantities);
+  intrinsicsQuantities(*problem, &quantities);
+  for (const auto& q : quantities) {
+    const Eigen::MatrixXd S = q.prior_std.asDiagonal();
+    // IMU intrinsics: a block already held is released only when the motion tells 4x the ratio
+    // (hysteresis). Their gains hover near the ratio when a reading component is only nearly
+    // constant, and each release leaves a direction free with little information in the window
+    // (what left it while held added none), where it moves on noise before it is held again.
+    const double ratio = q.symbol.empty()       ? options_.observability_ratio
+                         : holds_.count(q.block) ? 4.0 * options_.imu_intrinsics_observability_ratio
+                                                : options_.imu_intrinsics_observability_ratio;
+    if (!(ratio > 0.0)) continue;
+    const WeakDirections weak = weakDirections(S * q.information * S, q.prior_std, ratio);
+    if (weak.directions.cols() == 0) continue;
+    UnobservableCalibration u;
+    u.sensor = q.sensor;
+    u.base = rig_.inertial[0].name;
+    u.quantity = q.name;
+    for (int c = 0; c < weak.directions.cols(); ++c) {
+      u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
+      if (!q.symbol.empty()) {
+        u.elements.push_back(elementName(q.elements, weak.directions.col(c)));
+        continue;
+      }
+      if (q.size != 3) continue;
+      Eigen::Vector3d d = q.to_I * weak.directions.col(c);
+      int largest = 0;
+      d.cwiseAbs().maxCoeff(&largest);
+      if (d[largest] < 0) d = -d;
+      u.directions_I.push_back(d.normalized());
+    }
+    unobservable_.push_back(std::move(u));
+    // The block's tangent directions (disjoint rows per quantity, so the columns stay
+    // orthonormal).
+    const ceres::Manifold* own = baseManifold(*problem, q.block);
+    const int tangent = own != nullptr ? own->TangentSize() : problem->ParameterBlockSize(q.block);
+    Eigen::MatrixXd& D = uninformative_[q.block];
+    const auto old = D.cols();
+    D.conservativeResize(tangent, old + weak.directions.cols());
+    D.rightCols(weak.directions.cols()).setZero();
+    if (q.rows.empty()) {
+      D.block(q.offset, old, q.size, weak.directions.cols()) = weak.directions;
+    } else {
+      for (int k = 0; k < q.size; ++k) {
+        D.block(q.rows[k], old, 1, weak.directions.cols()) = weak.directions.row(k);
+      }
+    }
+  }
+  applyHolds(problem);
+}
+
+void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
+                                             std::vector<Quantity>* out) const {
   // The recent motion's information (report Sec. 5.1, Table 2), per unit noise density.
   MotionInformation sum;
-  for (const auto& m : motion_information) {
+  for (const auto& m : motion_) {
     sum.translation += m.translation;
     sum.rotation += m.rotation;
     sum.time_offset += m.time_offset;
   }
-  std::vector<Quantity> quantities;
+  std::vector<Quantity>& quantities = *out;
   // Translations (cameras and aux IMUs): the relative acceleration of two rigidly attached
   // points is (hat(alpha) + hat(w)^2) p, measured with the accelerometer's noise. Extrinsic
   // translations are p_X_I in {X}; the sensor's position in {I} is -R^T p.
-  auto translation = [&](const std::string& name, double* block,
-                         const estimator_internal::CalibrationPrior& prior, double density) {
-    if (!estimated(block) || !(density > 0.0)) return;
+  auto translation = [&](const std::string& name, const double* block,
+                         const CalibrationPrior& prior, double density) {
+    if (!estimated(problem, block) || !(density > 0.0)) return;
     const Eigen::Matrix3d R_X_I = poseRotation(block).toRotationMatrix();
     quantities.push_back({name, "translation", block, 3, 3, prior.translation, R_X_I.transpose(),
                           R_X_I * sum.translation * R_X_I.transpose() / (density * density)});
   };
-  for (std::size_t c = 0; c < cameras.size(); ++c) {
-    translation(rig.cameras[c].name, cameras[c]->extrinsic, cameras[c]->prior,
-                rig.inertial[0].noise.accelerometer_noise_density);
+  for (std::size_t c = 0; c < calibration_.cameras(); ++c) {
+    const CameraBlocks& cb = calibration_.camera(c);
+    translation(rig_.cameras[c].name, cb.extrinsic, cb.prior,
+                rig_.inertial[0].noise.accelerometer_noise_density);
   }
-  for (auto& a : aux) {
-    const std::string& name = rig.inertial[a->sensor].name;
-    const ImuNoise& noise = rig.inertial[a->sensor].noise;
+  for (std::size_t i = 0; i < calibration_.auxiliaries(); ++i) {
+    const AuxCalibration* a = &calibration_.aux(i);
+    const std::string& name = rig_.inertial[a->sensor].name;
+    const ImuNoise& noise = rig_.inertial[a->sensor].noise;
     if (!a->gyro) {
       translation(name, a->extrinsic, a->prior, noise.accelerometer_noise_density);
       continue;
@@ -189,18 +265,22 @@ void Estimator::Impl::checkObservability() {
     // d w_G / d dtheta = -R hat(w); its time offset: d w_G / d t = R alpha.
     const double density = noise.gyroscope_noise_density;
     if (!(density > 0.0)) continue;
-    if (estimated(a->rotation)) {
+    if (estimated(problem, a->rotation)) {
       quantities.push_back({name, "rotation", a->rotation, 0, 3, a->prior.rotation,
                             Eigen::Matrix3d::Identity(), sum.rotation / (density * density)});
     }
-    if (estimated(a->time_offset)) {
+    if (estimated(problem, a->time_offset)) {
       quantities.push_back(
           {name, "time offset", a->time_offset, 0, 1,
            Eigen::VectorXd::Constant(1, a->prior.time_offset), Eigen::Matrix3d::Identity(),
            Eigen::MatrixXd::Constant(1, 1, sum.time_offset / (density * density))});
     }
   }
+}
 
+void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
+                                                std::vector<Quantity>* out) const {
+  std::vector<Quantity>& quantities = *out;
   // IMU intrinsics (report Table 3). To first order a reading errs by
   //   gyroscope:      dDw w - dTg a                  (Dw ~ I)
   //   accelerometer:  (dDa + hat(dtheta)) a = dDa a - hat(a) dtheta
@@ -213,14 +293,14 @@ void Estimator::Impl::checkObservability() {
   // unobservable). Dw and Tg are checked apart, neglecting the cross-moment of w and a: held
   // directions mixing elements of different prior sizes would keep a wrong variance (the hold
   // keeps the held subspace's variance and conditions the rest on it).
-  for (std::size_t i = 0; i < imu_intrinsics.size(); ++i) {
-    ImuIntrinsicsBlock* b = imu_intrinsics[i].get();
-    if (b == nullptr || !estimated(b->x) || reading_moments[i].empty() ||
-        !(options.imu_intrinsics_observability_ratio > 0.0)) {
+  for (std::size_t i = 0; i < intrinsics_.sensors(); ++i) {
+    const ImuIntrinsicsBlock* b = intrinsics_.block(i);
+    if (b == nullptr || !estimated(problem, b->x) || moments_[i].empty() ||
+        !(options_.imu_intrinsics_observability_ratio > 0.0)) {
       continue;
     }
     ReadingMoments m;
-    for (const auto& r : reading_moments[i]) {
+    for (const auto& r : moments_[i]) {
       m.T += r.T;
       m.n += r.n;
       m.w += r.w;
@@ -230,7 +310,7 @@ void Estimator::Impl::checkObservability() {
       m.wa += r.wa;
     }
     if (!(m.T > 0.0)) continue;
-    const ImuNoise& noise = rig.inertial[i].noise;
+    const ImuNoise& noise = rig_.inertial[i].noise;
     const double sg = noise.gyroscope_noise_density, sa = noise.accelerometer_noise_density;
     const bool accel = !b->frame.gyro_only && sa > 0.0;
     // Centered second moments of z = [w; a].
@@ -274,7 +354,7 @@ void Estimator::Impl::checkObservability() {
         }
         I += G * C * G.transpose() / (density * density);
       }
-      Quantity q{rig.inertial[i].name,        quantity, b->x, 0, n, Eigen::VectorXd(n),
+      Quantity q{rig_.inertial[i].name,        quantity, b->x, 0, n, Eigen::VectorXd(n),
                  Eigen::Matrix3d::Identity(), I};
       q.symbol = symbol;
       for (int k = 0; k < n; ++k) {
@@ -310,120 +390,30 @@ void Estimator::Impl::checkObservability() {
     addChannel(acc, sa, "accelerometer intrinsics", "accel");
   }
 
-  for (const auto& q : quantities) {
-    const Eigen::MatrixXd S = q.prior_std.asDiagonal();
-    // IMU intrinsics: a block already held is released only when the motion tells 4x the ratio
-    // (hysteresis). Their gains hover near the ratio when a reading component is only nearly
-    // constant, and each release leaves a direction free with little information in the window
-    // (what left it while held added none), where it moves on noise before it is held again.
-    const double ratio = q.symbol.empty()       ? options.observability_ratio
-                         : holds.count(q.block) ? 4.0 * options.imu_intrinsics_observability_ratio
-                                                : options.imu_intrinsics_observability_ratio;
-    if (!(ratio > 0.0)) continue;
-    const WeakDirections weak = weakDirections(S * q.information * S, q.prior_std, ratio);
-    if (weak.directions.cols() == 0) continue;
-    UnobservableCalibration u;
-    u.sensor = q.sensor;
-    u.base = rig.inertial[0].name;
-    u.quantity = q.name;
-    for (int c = 0; c < weak.directions.cols(); ++c) {
-      u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
-      if (!q.symbol.empty()) {
-        u.elements.push_back(elementName(q.elements, weak.directions.col(c)));
-        continue;
-      }
-      if (q.size != 3) continue;
-      Eigen::Vector3d d = q.to_I * weak.directions.col(c);
-      int largest = 0;
-      d.cwiseAbs().maxCoeff(&largest);
-      if (d[largest] < 0) d = -d;
-      u.directions_I.push_back(d.normalized());
-    }
-    unobservable.push_back(std::move(u));
-    // The block's tangent directions (disjoint rows per quantity, so the columns stay
-    // orthonormal).
-    const ceres::Manifold* own = baseManifold(q.block);
-    const int tangent = own != nullptr ? own->TangentSize() : problem->ParameterBlockSize(q.block);
-    Eigen::MatrixXd& D = uninformative[q.block];
-    const auto old = D.cols();
-    D.conservativeResize(tangent, old + weak.directions.cols());
-    D.rightCols(weak.directions.cols()).setZero();
-    if (q.rows.empty()) {
-      D.block(q.offset, old, q.size, weak.directions.cols()) = weak.directions;
-    } else {
-      for (int k = 0; k < q.size; ++k) {
-        D.block(q.rows[k], old, 1, weak.directions.cols()) = weak.directions.row(k);
-      }
-    }
-  }
-  applyHolds();
 }
 
-Eigen::VectorXd Estimator::Impl::latestStd(const double* block) const {
-  for (std::size_t c = 0; c < cameras.size(); ++c) {
-    const CameraBlocks& cb = *cameras[c];
-    const bool have = camera_std.has_value();
-    if (block == cb.extrinsic) {
-      Vector6d sd;
-      sd << cb.prior.rotation, cb.prior.translation;
-      if (have && (*camera_std)[c].rotation.allFinite() && (*camera_std)[c].rotation.norm() > 0) {
-        sd << (*camera_std)[c].rotation, (*camera_std)[c].translation;
-      }
-      return sd;
-    }
-    if (block == cb.time_offset) {
-      const double v = have ? (*camera_std)[c].timeshift_cam_imu : 0.0;
-      return Eigen::VectorXd::Constant(1, v > 0 ? v : cb.prior.time_offset);
-    }
-  }
-  for (const auto& a : aux) {
-    const bool have = a->std.has_value();
-    if (block == a->time_offset) {
-      const double v = have ? a->std->time_offset : 0.0;
-      return Eigen::VectorXd::Constant(1, v > 0 ? v : a->prior.time_offset);
-    }
-    if (block == a->rotation && a->gyro) {
-      return have && a->std->rotation.norm() > 0 ? Eigen::VectorXd(a->std->rotation)
-                                                 : Eigen::VectorXd(a->prior.rotation);
-    }
-    if (block == a->extrinsic && !a->gyro) {
-      Vector6d sd;
-      sd << a->prior.rotation, a->prior.translation;
-      if (have && a->std->rotation.norm() > 0) sd << a->std->rotation, a->std->translation;
-      return sd;
-    }
-  }
-  for (const auto& b : imu_intrinsics) {
-    if (!b || block != b->x) continue;
-    Eigen::VectorXd sd(b->free.size());
-    for (std::size_t k = 0; k < b->free.size(); ++k) {
-      const int e = b->free[k];
-      sd[k] = b->covariance && (*b->covariance)(e, e) > 0.0 ? std::sqrt((*b->covariance)(e, e))
-                                                            : b->prior_std[e];
-    }
-    return sd;
-  }
-  return Eigen::VectorXd();
+Eigen::MatrixXd ObservabilityMonitor::latestCovariance(const double* block) const {
+  if (auto C = intrinsics_.latestCovariance(block)) return *C;
+  Eigen::VectorXd sd = calibration_.latestStd(block);
+  if (sd.size() == 0) sd = intrinsics_.latestStd(block);
+  return Eigen::MatrixXd(sd.cwiseAbs2().asDiagonal());
 }
 
-Eigen::MatrixXd Estimator::Impl::latestCovariance(const double* block) const {
-  for (const auto& b : imu_intrinsics) {
-    if (!b || block != b->x || !b->covariance) continue;
-    const auto n = static_cast<int>(b->free.size());
-    Eigen::MatrixXd C(n, n);
-    for (int r = 0; r < n; ++r) {
-      for (int c = 0; c < n; ++c) C(r, c) = (*b->covariance)(b->free[r], b->free[c]);
-    }
-    return C;
-  }
-  return Eigen::MatrixXd(latestStd(block).cwiseAbs2().asDiagonal());
+const ceres::Manifold* ObservabilityMonitor::baseManifold(const ceres::Problem& problem,
+                                                          const double* block) const {
+  const auto h = holds_.find(block);
+  return h != holds_.end() ? h->second.base : problem.GetManifold(block);
 }
 
-void Estimator::Impl::applyHolds() {
+bool ObservabilityMonitor::estimated(const ceres::Problem& problem, const double* block) const {
+  return holds_.count(block) > 0 || !problem.IsParameterBlockConstant(block);
+}
+
+void ObservabilityMonitor::applyHolds(ceres::Problem* problem) {
   // Release what is observable again.
-  for (auto it = holds.begin(); it != holds.end();) {
+  for (auto it = holds_.begin(); it != holds_.end();) {
     double* block = const_cast<double*>(it->first);
-    if (uninformative.count(block)) {
+    if (uninformative_.count(block)) {
       ++it;
       continue;
     }
@@ -432,22 +422,22 @@ void Estimator::Impl::applyHolds() {
     } else {
       problem->SetParameterBlockVariable(block);
     }
-    it = holds.erase(it);
+    it = holds_.erase(it);
   }
-  for (const auto& [const_block, D] : uninformative) {
+  for (const auto& [const_block, D] : uninformative_) {
     double* block = const_cast<double*>(const_block);
-    auto existing = holds.find(block);
-    if (existing != holds.end() && existing->second.directions.cols() == D.cols()) {
+    auto existing = holds_.find(block);
+    if (existing != holds_.end() && existing->second.directions.cols() == D.cols()) {
       // The same subspace: held as it is. IMU intrinsics' weak directions wobble from solve to
       // solve with the readings' moments (mixtures of elements when an axis is only nearly
       // constant); re-holding them every time would move the block along the old directions
       // and re-estimate their variance, so a subspace within ~0.1 rad counts as the same.
       const Eigen::MatrixXd& E = existing->second.directions;
       const double change = (E * E.transpose() - D * D.transpose()).norm();
-      if (change < (isImuIntrinsics(block) ? 0.1 : 1e-9)) continue;
+      if (change < (intrinsics_.isBlock(block) ? 0.1 : 1e-9)) continue;
     }
     Hold hold;
-    hold.base = existing != holds.end() ? existing->second.base
+    hold.base = existing != holds_.end() ? existing->second.base
                                         : const_cast<ceres::Manifold*>(problem->GetManifold(block));
     // The held subspace keeps the latest covariance there, D^T Sigma D; its basis is turned to
     // that matrix's eigenvectors so the kept variances are exact per direction.
@@ -456,9 +446,9 @@ void Estimator::Impl::applyHolds() {
     hold.directions = D * eig.eigenvectors();
     hold.variance = eig.eigenvalues().cwiseMax(0.0);
     const int tangent = static_cast<int>(D.rows());
-    const bool was_constant = existing != holds.end() && !existing->second.subspace;
+    const bool was_constant = existing != holds_.end() && !existing->second.subspace;
     if (D.cols() >= tangent) {
-      if (existing != holds.end() && existing->second.subspace) {
+      if (existing != holds_.end() && existing->second.subspace) {
         problem->SetManifold(block, hold.base);
       }
       problem->SetParameterBlockConstant(block);
@@ -472,24 +462,68 @@ void Estimator::Impl::applyHolds() {
       if (was_constant) problem->SetParameterBlockVariable(block);
       problem->SetManifold(block, hold.subspace.get());
     }
-    holds[block] = std::move(hold);  // the replaced manifold is no longer in use
+    holds_[block] = std::move(hold);  // the replaced manifold is no longer in use
   }
 }
 
-Eigen::MatrixXd Estimator::Impl::tangentCovariance(const ceres::Covariance& cov,
-                                                   const double* block) const {
-  const int t = problem->ParameterBlockTangentSize(block);
+Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& problem,
+                                                        const ceres::Covariance& cov,
+                                                        const double* block) const {
+  const int t = problem.ParameterBlockTangentSize(block);
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(t, t);
   // Only for blocks that were in the computation (not constant); NaN otherwise, never garbage.
   if (!cov.GetCovarianceBlockInTangentSpace(block, block, C.data())) {
     C.setConstant(std::numeric_limits<double>::quiet_NaN());
   }
-  const auto h = holds.find(block);
-  if (h == holds.end() || !h->second.subspace) return C;
+  const auto h = holds_.find(block);
+  if (h == holds_.end() || !h->second.subspace) return C;
   const Hold& hold = h->second;
   const Eigen::MatrixXd& B = hold.subspace->basis();
   return B * C * B.transpose() +
          hold.directions * hold.variance.asDiagonal() * hold.directions.transpose();
 }
 
+Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
+                                                    int threads,
+                                                    Eigen::Matrix<double, 6, 6>* pose_cov) {
+  // The pose depends on what is held (a camera's translation along the only rotation axis
+  // moves imu0's position in the board frame along it): with the held directions constant its
+  // covariance would be as if they were known. Released for this computation, with a prior of
+  // the uncertainty they kept, they carry it into the pose. The window may still know a little
+  // along them (the marginalization prior keeps what earlier motion told, which is part of the
+  // kept variance too), so the pose's variance along them is at worst about half what it is.
+  std::vector<ceres::ResidualBlockId> added;
+  for (auto& [const_block, hold] : holds_) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.base);
+    } else {
+      problem->SetParameterBlockVariable(block);
+    }
+    const int ambient = problem->ParameterBlockSize(block);
+    added.push_back(problem->AddResidualBlock(
+        new TangentPriorFactor(hold.base, std::vector<double>(block, block + ambient),
+                               hold.directions, hold.variance.cwiseMax(1e-30).cwiseSqrt()),
+        nullptr, block));
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = threads;
+  ceres::Covariance cov(co);
+  const std::vector<std::pair<const double*, const double*>> pose_block = {{pose, pose}};
+  const bool ok = cov.Compute(pose_block, problem);
+  if (ok) cov.GetCovarianceBlockInTangentSpace(pose, pose, pose_cov->data());
+  for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
+  for (auto& [const_block, hold] : holds_) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.subspace.get());
+    } else {
+      problem->SetParameterBlockConstant(block);
+    }
+  }
+  return ok ? Status::Ok() : Status::Error("pose covariance with the held directions failed");
+}
+
+}  // namespace estimator_internal
 }  // namespace mvis

@@ -1,0 +1,115 @@
+// The spatial and temporal calibration as parameter blocks: every camera's extrinsic T_C_I, time
+// offset and intrinsics, every auxiliary sensor's extrinsic T_i_b (a gyroscope's rotation) and
+// time offset, and gravity in the world frame; with their priors and their latest standard
+// deviations. Private to src/core/estimator.
+//
+// Owns: those blocks (they always exist; options and holds only make them constant), their
+// priors and standard deviations. Asks nothing of the other parts: the window's problem and the
+// covariance are handed in by whoever solves.
+#pragma once
+
+#include <ceres/ceres.h>
+#include <ceres/sphere_manifold.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mvis/estimator/estimator.h"
+#include "mvis/factors/state_blocks.h"
+#include "mvis/rig/rig.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+// Whether options.hold holds `quantity` of `sensor` at its configured value.
+bool heldByOption(const EstimatorOptions& options, const std::string& sensor, const char* quantity);
+
+// Prior standard deviations of an extrinsic and time offset: the configuration's *_std values
+// where positive, the defaults elsewhere.
+struct CalibrationPrior {
+  Eigen::Vector3d rotation, translation;
+  double time_offset;
+};
+
+struct CameraBlocks {
+  double extrinsic[kPoseSize];  // T_C_I
+  double time_offset[1];        // [s]
+  double intrinsics[kIntrinsicsSize];
+  CalibrationPrior prior;  // of the extrinsic and time offset
+  // Of [fu fv pu pv k1 k2 k3 k4] (used when the intrinsics are estimated).
+  Eigen::Matrix<double, kIntrinsicsSize, 1> intrinsics_prior =
+      Eigen::Matrix<double, kIntrinsicsSize, 1>::Zero();
+};
+
+// An auxiliary IMU's or gyroscope's calibration (rig.inertial[sensor], sensor >= 1).
+struct AuxCalibration {
+  std::size_t sensor = 0;
+  bool gyro = false;
+  double extrinsic[kPoseSize];     // T_i_b (IMUs)
+  double rotation[kRotationSize];  // the rotation of T_i_b (gyroscopes)
+  double time_offset[1];           // [s], t_imu0 = t_i + time_offset
+  CalibrationPrior prior;          // of the extrinsic (or rotation) and time offset
+  std::optional<InertialCalibrationStd> std;
+
+  double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
+  const double* extrinsicBlock() const { return gyro ? rotation : extrinsic; }
+  // The extrinsic rotation R_AI and translation p_AI of T_i_b (p_A = R_AI p_I + p_AI).
+  void extrinsicParts(Eigen::Matrix3d* R_AI, Eigen::Vector3d* p_AI) const;
+};
+
+// A block's covariance in its own tangent (held directions with the variance they keep).
+using TangentCovariance = std::function<Eigen::MatrixXd(const double* block)>;
+
+class CalibrationBlocks {
+ public:
+  CalibrationBlocks(const Rig& rig, const EstimatorOptions& options);
+
+  // Adds gravity and every camera's and auxiliary sensor's blocks with their priors, constant
+  // where the options or holds say so.
+  void addTo(ceres::Problem* problem);
+
+  std::size_t cameras() const { return cameras_.size(); }
+  CameraBlocks& camera(std::size_t c) { return *cameras_[c]; }
+  const CameraBlocks& camera(std::size_t c) const { return *cameras_[c]; }
+  // Index sensor - 1.
+  std::size_t auxiliaries() const { return aux_.size(); }
+  AuxCalibration& aux(std::size_t i) { return *aux_[i]; }
+  const AuxCalibration& aux(std::size_t i) const { return *aux_[i]; }
+  double* gravity() { return gravity_; }
+  const double* gravity() const { return gravity_; }
+
+  // Camera c's time offset [ns].
+  TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras_[c]->time_offset[0]); }
+  // Camera c with its current intrinsics.
+  Camera currentCamera(std::size_t c) const;
+  // The blocks the first batch holds: the auxiliary sensors' and the cameras' intrinsics.
+  std::vector<double*> batchHeldBlocks();
+  // The estimated (non-constant) blocks whose covariance is wanted.
+  void covarianceBlocks(const ceres::Problem& problem,
+                        std::vector<std::pair<const double*, const double*>>* blocks) const;
+  // Standard deviations from a computed covariance; blocks held whole keep theirs.
+  void updateStd(const ceres::Problem& problem, const ceres::Covariance& cov,
+                 const TangentCovariance& tangent);
+  // Latest standard deviations of a camera or auxiliary calibration block in its own tangent
+  // (the prior's before any covariance); empty for another block.
+  Eigen::VectorXd latestStd(const double* block) const;
+  // The current calibration into `out` (a copy of the configured rig).
+  void write(Rig* out) const;
+
+ private:
+  const Rig& rig_;
+  const EstimatorOptions& options_;
+  std::vector<std::unique_ptr<CameraBlocks>> cameras_;
+  std::vector<std::unique_ptr<AuxCalibration>> aux_;  // index sensor - 1
+  double gravity_[kGravitySize] = {0.0, 0.0, -9.81};
+  std::optional<std::vector<CameraCalibrationStd>> camera_std_;
+  PoseManifold pose_manifold_;
+  RotationManifold rotation_manifold_;
+  ceres::SphereManifold<3> sphere_manifold_;
+};
+
+}  // namespace estimator_internal
+}  // namespace mvis

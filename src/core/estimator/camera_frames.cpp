@@ -1,0 +1,278 @@
+#include "camera_frames.h"
+
+#include <ceres/normal_prior.h>
+
+#include <algorithm>
+#include <functional>
+
+#include "mvis/estimator/initialization.h"
+
+namespace mvis {
+namespace estimator_internal {
+namespace {
+
+// A camera frame's IMU-propagated pose depends on the IMU intrinsics (as a parameter block of its
+// factor) only when it is propagated further than this from its state: over 2 ms a 1% scale
+// error at 1 rad/s moves it by 2e-5 rad (~0.01 px), and each such block costs the solver a
+// 24-column Jacobian per frame (J^T J was 15% of the run).
+constexpr TimeNs kIntrinsicsAnchorSpanNs = 2000000;  // 2 ms
+// A frame propagated less than this from its state (cam0's, at their state's time) carries no
+// propagation-noise block: its readings' noise is under 1e-5 rad there, and the block would cost
+// a parameter block per frame.
+constexpr TimeNs kPropagationNoiseSpanNs = 1000000;  // 1 ms
+// Frames of one camera waiting at most (the IMU or cam0 stopped: they must not pile up).
+constexpr std::size_t kMaxWaiting = 300;
+
+// The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
+// when the covariance is not positive definite.
+ceres::CostFunction* propagationNoisePrior(const Eigen::Matrix<double, 9, 9>& covariance) {
+  // A with A^T A = Sigma^-1, through the Jacobi-scaled S = D Sigma D (D = diag(Sigma)^-1/2: the
+  // rotation's and position's variances differ by orders of magnitude): A = L^-1 D, S = L L^T.
+  const Eigen::Matrix<double, 9, 1> d = covariance.diagonal();
+  if (!(d.minCoeff() > 0.0) || !d.allFinite()) return nullptr;
+  const Eigen::Matrix<double, 9, 1> D = d.cwiseSqrt().cwiseInverse();
+  const Eigen::Matrix<double, 9, 9> S = D.asDiagonal() * covariance * D.asDiagonal();
+  const Eigen::LLT<Eigen::Matrix<double, 9, 9>> llt(S);
+  if (llt.info() != Eigen::Success) return nullptr;
+  Eigen::Matrix<double, 9, 9> A = D.asDiagonal();
+  llt.matrixL().solveInPlace(A);
+  return new ceres::NormalPrior(A, Eigen::VectorXd::Zero(kPropagationNoiseSize));
+}
+
+}  // namespace
+
+CameraFrames::CameraFrames(const Rig& rig, const EstimatorOptions& options, Window& window,
+                           const ImuBuffer& imu, CalibrationBlocks& calibration,
+                           ImuIntrinsicsBlocks& intrinsics, Landmarks& landmarks,
+                           EstimatorCounters& counters)
+    : rig_(rig),
+      options_(options),
+      window_(window),
+      imu_(imu),
+      calibration_(calibration),
+      intrinsics_(intrinsics),
+      landmarks_(landmarks),
+      counters_(counters),
+      waiting_(rig.cameras.size()),
+      last_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()) {
+  if (options.huber_sigma > 0.0) huber_ = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
+}
+
+int CameraFrames::minTags() const { return !rig_.target ? 1 : options_.min_tags; }
+
+bool CameraFrames::markNewer(const TagFrame& frame) {
+  if (frame.stamp_ns <= last_[frame.camera]) return false;
+  last_[frame.camera] = frame.stamp_ns;
+  return true;
+}
+
+void CameraFrames::enqueue(TagFrame frame) {
+  auto& q = frame.camera == 0 ? base_ : waiting_[frame.camera];
+  q.push_back(std::move(frame));
+  while (q.size() > kMaxWaiting) {
+    q.pop_front();
+    ++counters_.frames_too_old;
+  }
+}
+
+TagFrame CameraFrames::takeBaseFrame() {
+  TagFrame out = std::move(base_.front());
+  base_.pop_front();
+  return out;
+}
+
+void CameraFrames::clear() {
+  base_.clear();
+  for (auto& q : waiting_) q.clear();
+  std::fill(last_.begin(), last_.end(), std::numeric_limits<TimeNs>::min());
+}
+
+ceres::LossFunction* CameraFrames::tagLoss(int tags) {
+  if (!huber_) return nullptr;
+  auto& loss = tag_losses_[tags];
+  if (!loss) {
+    loss = std::make_unique<ceres::HuberLoss>(options_.huber_sigma / std::sqrt(double(tags)));
+  }
+  return loss.get();
+}
+
+SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
+  const State& sk = window_.state(k);
+  const std::size_t c = frame.camera;
+  const TimeNs t = std::max(sk.t, frame.stamp_ns + calibration_.timeOffsetNs(c));
+  Eigen::Vector3d bg, ba;
+  intrinsics_.baseBiases(sk.biasGyro(), sk.biasAccel(), &bg, &ba);
+  Eigen::Quaterniond q;
+  Eigen::Vector3d p, v;
+  imu_.preintegrate(sk.t, t, bg, ba, &intrinsics_.baseCorrection())
+      ->predict(poseRotation(sk.pose), posePosition(sk.pose), Eigen::Vector3d(sk.speed_bias),
+                Eigen::Vector3d(calibration_.gravity()), &q, &p, &v);
+  return SE3(q, p) * poseToSE3(calibration_.camera(c).extrinsic).inverse();
+}
+
+std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, std::size_t k,
+                                                       bool initialized, int* corners) {
+  const std::size_t c = frame.camera;
+  CameraBlocks& cb = calibration_.camera(c);
+  double* gravity = calibration_.gravity();
+  // The frame's pose comes from the readings around it: inside a gap they are made up.
+  if (imu_.insideGap(frame.stamp_ns + calibration_.timeOffsetNs(c))) {
+    ++counters_.frames_in_imu_gap;
+    return {};
+  }
+  // The corners in groups of one factor each, with their landmark block (null: board points).
+  std::vector<std::pair<std::vector<CornerObservation>, double*>> groups;
+  *corners = 0;
+  if (!rig_.target) {
+    for (const auto& tag : frame.tags) {
+      double* landmark = landmarks_.landmarkFor(window_.problem(), calibration_.currentCamera(c),
+                                                frame, tag, [&] { return cameraPoseAt(frame, k); });
+      if (landmark == nullptr) continue;
+      std::vector<CornerObservation> obs;
+      for (int i = 0; i < 4; ++i) obs.push_back({Eigen::Vector3d::Zero(), tag.corners_px[i], i});
+      groups.emplace_back(std::move(obs), landmark);
+      *corners += 4;
+    }
+  } else {
+    auto obs = boardCorners(frame, *rig_.target);
+    *corners = static_cast<int>(obs.size());
+    if (!obs.empty()) groups.emplace_back(std::move(obs), nullptr);
+  }
+  if (groups.empty()) return {};
+  const DistortionModel model = rig_.cameras[c].distortion_model;
+  State* sk = &window_.state(k);
+  std::vector<double*> blocks;
+  std::function<TagReprojectionFactor*(std::vector<CornerObservation>)> make;
+  double* noise = nullptr;  // the frame's propagation-noise block, shared by its tags' factors
+  ceres::CostFunction* noise_prior = nullptr;
+  if (options_.interpolation == FrameInterpolation::kImu) {
+    const TimeNs t_a = std::max(sk->t, frame.stamp_ns + calibration_.timeOffsetNs(c));
+    // The readings at t_a for the last few milliseconds (the time offset's change): corrected by
+    // the current intrinsics estimate when they are estimated (the raw bias states are then
+    // subtracted from corrected readings: a few parts per thousand of a bias over milliseconds).
+    const ImuMeasurement at = intrinsics_.baseCorrection().apply(imu_.at(t_a), false);
+    const Eigen::Vector3d alpha = imu_.angularAcceleration(t_a);
+    const double dt_nominal = toSeconds(frame.stamp_ns - t_a);
+    TagReprojectionFactor::ImuAnchor anchor;
+    blocks = {sk->pose, sk->speed_bias, gravity, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    // The readings' covariance over [t_k, t_a], [dtheta, dp, dv] (imu_preintegration.h).
+    Eigen::Matrix<double, 9, 9> propagation_cov = Eigen::Matrix<double, 9, 9>::Zero();
+    double* imu_in = intrinsics_.values(0);
+    if (imu_in != nullptr && t_a - sk->t > kIntrinsicsAnchorSpanNs) {
+      // Raw readings re-integrated at the state's biases and the current intrinsics, with the
+      // intrinsics' Jacobian (tag_reprojection_factor.h).
+      const ImuDeltas d =
+          reintegrate(imu_.toIntegrate(sk->t, t_a),
+                      deltaVariables(sk->speed_bias + 3, sk->speed_bias + 6, imu_in),
+                      intrinsics_.block(0)->frame, true);
+      anchor = TagReprojectionFactor::makeAnchor(d, true, dt_nominal, at.gyro, at.accel, alpha);
+      blocks.push_back(imu_in);
+      if (options_.propagation_noise) {
+        const Eigen::Vector3d bg(sk->speed_bias + 3), ba(sk->speed_bias + 6);
+        propagation_cov = imu_.preintegrate(sk->t, t_a, bg, ba, &intrinsics_.baseCorrection())
+                              ->covariance()
+                              .topLeftCorner<9, 9>();
+      }
+    } else {
+      // Without intrinsics, or over so short a span (cam0's frames, at their state's time) that
+      // they cannot matter: readings corrected by the current estimate, no intrinsics block
+      // (the biases in corrected form, imu_correction.h; both identity without intrinsics).
+      Eigen::Vector3d bg, ba;
+      intrinsics_.baseBiases(sk->biasGyro(), sk->biasAccel(), &bg, &ba);
+      auto pre = imu_.preintegrate(sk->t, t_a, bg, ba, &intrinsics_.baseCorrection());
+      anchor = TagReprojectionFactor::makeAnchor(*pre, dt_nominal, at.gyro, at.accel, alpha);
+      propagation_cov = pre->covariance().topLeftCorner<9, 9>();
+    }
+    if (options_.propagation_noise && t_a - sk->t >= kPropagationNoiseSpanNs) {
+      noise_prior = propagationNoisePrior(propagation_cov);
+    }
+    if (noise_prior != nullptr) {
+      sk->propagation_noise.push_back(std::make_unique<double[]>(kPropagationNoiseSize));
+      noise = sk->propagation_noise.back().get();
+      std::fill(noise, noise + kPropagationNoiseSize, 0.0);
+      blocks.push_back(noise);
+    }
+    make = [&, anchor](std::vector<CornerObservation> obs) {
+      auto* f = TagReprojectionFactor::imuPropagated(model, std::move(obs), options_.pixel_sigma_px,
+                                                     anchor);
+      if (noise != nullptr) f->usePropagationNoise();
+      return f;
+    };
+  } else if (c == 0) {
+    const double dt_nominal = toSeconds(frame.stamp_ns - sk->t);
+    blocks = {sk->pose, sk->speed_bias, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    make = [&, dt_nominal](std::vector<CornerObservation> obs) {
+      return TagReprojectionFactor::kinematic(model, std::move(obs), options_.pixel_sigma_px,
+                                              dt_nominal, sk->motion.gyro);
+    };
+  } else {
+    State* sk1 = &window_.state(k + 1);
+    blocks = {sk->pose, sk1->pose, cb.extrinsic, cb.time_offset, cb.intrinsics};
+    make = [&, sk1](std::vector<CornerObservation> obs) {
+      return TagReprojectionFactor::poseBased(model, std::move(obs), options_.pixel_sigma_px,
+                                              toSeconds(frame.stamp_ns - sk->t),
+                                              toSeconds(sk1->t - sk->t));
+    };
+  }
+  std::vector<Piece> out;
+  // A frame's tag factors share its camera pose (without a board; with one it has one factor).
+  const auto shared = !rig_.target ? TagReprojectionFactor::makeSharedCameraPose() : nullptr;
+  for (auto& [obs, landmark] : groups) {
+    TagReprojectionFactor* factor = make(std::move(obs));
+    ceres::LossFunction* loss = nullptr;
+    // The first batch (before `initialized`) always has the loss per frame: its residuals are
+    // mostly the rough initial calibration's, which a per-corner loss would take for outliers
+    // (it left the batch's states tens of millimetres off), and plain squares would let a
+    // wrong detection in it bias everything that follows.
+    if (options_.robust_loss == RobustLoss::kFrame || !initialized) {
+      loss = landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber_.get();
+    } else if (options_.huber_sigma > 0.0) {
+      factor->useCornerLoss(options_.huber_sigma);
+    }
+    Piece piece{factor, loss, blocks};
+    if (landmark != nullptr) {
+      factor->useLandmarkBlock();
+      factor->shareCameraPose(shared);
+      piece.blocks.push_back(landmark);
+    }
+    out.push_back(std::move(piece));
+  }
+  if (noise != nullptr) out.push_back({noise_prior, nullptr, {noise}});
+  return out;
+}
+
+void CameraFrames::add(const TagFrame& frame, std::size_t k, bool initialized) {
+  int corners = 0;
+  auto pieces = factors(frame, k, initialized, &corners);
+  if (pieces.empty()) return;
+  State* owner = &window_.state(k);
+  for (auto& piece : pieces) {
+    window_.addRecord(owner, piece.cost, piece.loss, std::move(piece.blocks));
+  }
+  owner->frames += 1;
+  owner->corners += corners;
+}
+
+void CameraFrames::attachWaiting(bool initialized) {
+  if (window_.size() < 2) return;
+  for (std::size_t c = 1; c < waiting_.size(); ++c) {
+    auto& q = waiting_[c];
+    const TimeNs offset = calibration_.timeOffsetNs(c);
+    while (!q.empty()) {
+      const TimeNs t = q.front().stamp_ns + offset;
+      if (t < window_.oldest().t) {
+        ++counters_.frames_too_old;
+        q.pop_front();
+        continue;
+      }
+      if (t > window_.newestTime()) break;
+      std::size_t k = 0;
+      while (k + 2 < window_.size() && window_.state(k + 1).t <= t) ++k;
+      add(q.front(), k, initialized);
+      q.pop_front();
+    }
+  }
+}
+
+}  // namespace estimator_internal
+}  // namespace mvis

@@ -1,0 +1,88 @@
+// Camera frames into the window: each camera's frames waiting for the IMU (cam0's make the
+// window states, the others are attached between them), and a frame's reprojection factors
+// (TagReprojectionFactor: one over its board corners, or without a board one per tag with the
+// tag's landmark block), its pose propagated from the state before it with the base readings.
+// Private to src/core/estimator.
+//
+// Owns: the waiting frames, each camera's last frame stamp, the per-frame robust losses.
+// Asks of the others: the window (states, factors), the base IMU's readings, the cameras'
+// calibration blocks and gravity, the base IMU's intrinsics block and current correction, and
+// the landmarks (without a board).
+#pragma once
+
+#include <deque>
+#include <limits>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "calibration_blocks.h"
+#include "imu_buffer.h"
+#include "imu_intrinsics.h"
+#include "landmarks.h"
+#include "window.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+class CameraFrames {
+ public:
+  CameraFrames(const Rig& rig, const EstimatorOptions& options, Window& window,
+               const ImuBuffer& imu, CalibrationBlocks& calibration,
+               ImuIntrinsicsBlocks& intrinsics, Landmarks& landmarks, EstimatorCounters& counters);
+
+  // Without a board one tag is a frame's worth: four corners of a landmark (a rig among
+  // scattered tags often sees only one); with one, options.min_tags.
+  int minTags() const;
+  // Whether the frame is newer than its camera's last one (then it becomes the last).
+  bool markNewer(const TagFrame& frame);
+  // Queues a frame (at most 300 per camera wait: the oldest are dropped as too old).
+  void enqueue(TagFrame frame);
+
+  bool hasBaseFrame() const { return !base_.empty(); }
+  const TagFrame& nextBaseFrame() const { return base_.front(); }
+  TagFrame takeBaseFrame();
+
+  // Adds the frame's factors to the window, owned by window state k (or its successor).
+  // `initialized`: the window runs (the first batch has the loss per frame).
+  void add(const TagFrame& frame, std::size_t k, bool initialized);
+  // Places every waiting frame of the other cameras that falls inside the window.
+  void attachWaiting(bool initialized);
+  void clear();
+
+ private:
+  struct Piece {
+    ceres::CostFunction* cost;
+    ceres::LossFunction* loss;
+    std::vector<double*> blocks;
+  };
+  // The frame's factors (and, with options.propagation_noise, the prior of its propagation-noise
+  // block, owned by the state); empty when the frame cannot be used.
+  std::vector<Piece> factors(const TagFrame& frame, std::size_t k, bool initialized, int* corners);
+  // The loss of each of a frame's T tag factors without a board: Huber at huber_sigma /
+  // sqrt(T), so that the frame weighs as it would as one factor with the board (the Huber on
+  // its whole norm counts a frame of N corners like about 3 sqrt(N/2) of them, see
+  // RobustLoss::kFrame). Used with RobustLoss::kFrame and in the first batch.
+  ceres::LossFunction* tagLoss(int tags);
+  // The camera's pose at the frame: state k's carried there with the readings.
+  SE3 cameraPoseAt(const TagFrame& frame, std::size_t k) const;
+
+  const Rig& rig_;
+  const EstimatorOptions& options_;
+  Window& window_;
+  const ImuBuffer& imu_;
+  CalibrationBlocks& calibration_;
+  ImuIntrinsicsBlocks& intrinsics_;
+  Landmarks& landmarks_;
+  EstimatorCounters& counters_;
+  std::deque<TagFrame> base_;                  // cam0's, waiting for the IMU
+  std::vector<std::deque<TagFrame>> waiting_;  // the other cameras', waiting for the window
+  std::vector<TimeNs> last_;
+  // The loss per frame (options.huber_sigma), null for plain squares; without a board per number
+  // of tags in the frame. The loss per corner lives in the factor (useCornerLoss).
+  std::unique_ptr<ceres::LossFunction> huber_;
+  std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses_;
+};
+
+}  // namespace estimator_internal
+}  // namespace mvis

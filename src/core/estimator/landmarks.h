@@ -1,0 +1,65 @@
+// Tag corners as landmark states when the rig has no board (report Eq. 11). Before the window
+// starts, one tag per camera (its largest) gives that camera's poses at unit side; then every tag
+// starts from one view, placed with the camera pose at that frame, and leaves the window
+// (marginalized into the prior) with the last state that sees it. Private to src/core/estimator.
+//
+// Owns: the landmark blocks by tag id, each camera's pose tag, the tag side the initialization
+// found. Asks of the others, through its caller: the problem to add a new landmark to, the
+// camera with its current intrinsics, and the camera's pose at a frame.
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <array>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "mvis/factors/tag_reprojection_factor.h"
+#include "window_state.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+class Landmarks {
+ public:
+  explicit Landmarks(std::size_t cameras) : pose_tag_(cameras, -1) {}
+
+  // The camera's pose on its pose tag (unit side) in the frame, choosing a new pose tag (the
+  // largest in the frame) when it is not seen; *restarted when it did (rotations on different
+  // tags do not compare: the caller starts that camera's history over).
+  bool poseOnTag(const Camera& camera, const TagFrame& frame, SE3* T_T_C, bool* restarted);
+  int poseTag(std::size_t c) const { return pose_tag_[c]; }
+  void setInitialSide(double side_m) { initial_side_ = side_m; }
+
+  // The tag's landmark block, made if it has none yet: PnP on the tag at the mean side, placed
+  // with the camera pose T_G_C() at the frame. Null if that fails.
+  double* landmarkFor(ceres::Problem* problem, const Camera& camera, const TagFrame& frame,
+                      const TagObservation& tag, const std::function<SE3()>& T_G_C);
+  // Landmarks only the oldest window state's records observe: they leave with it.
+  std::vector<double*> leaving(const std::deque<std::unique_ptr<State>>& states) const;
+  // Forgets a landmark (after its block left the problem).
+  void remove(double* block);
+  // Every landmark's corners in the world frame, by tag id.
+  std::map<int, std::array<Eigen::Vector3d, 4>> corners() const;
+  // Forgets every landmark (the problem is replaced); resetPoseTags also every pose tag.
+  void clear();
+  void resetPoseTags();
+
+ private:
+  struct TagLandmark {
+    double x[kTagLandmarkSize];  // [p_G,0 .. p_G,3] (TagReprojectionFactor::useLandmarkBlock)
+  };
+  // The mean side of the landmarks' tags [m] (the guess for a new tag's size).
+  double meanTagSide() const;
+
+  std::map<int, std::unique_ptr<TagLandmark>> landmarks_;
+  std::map<const double*, int> ids_;
+  std::vector<int> pose_tag_;  // per camera, -1: none yet
+  double initial_side_ = 1.0;  // [m] from the initial alignment
+};
+
+}  // namespace estimator_internal
+}  // namespace mvis

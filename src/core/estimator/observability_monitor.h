@@ -1,0 +1,109 @@
+// Degenerate-motion awareness (report Sec. 5.1, Tables 2-3; observability.h): what the base
+// IMU's recent motion and the inertial sensors' recent readings tell each estimated calibration
+// quantity, which directions they leave unobservable, and holding those directions (a subspace
+// manifold, or constant when held whole) at the standard deviation they had until the motion
+// tells them again. Private to src/core/estimator.
+//
+// Owns: the motion's and readings' information over the horizon, the latest findings
+// (unobservable(), uninformative()) and the holds. Reads the calibration and IMU-intrinsics
+// blocks (their values, priors and latest standard deviations); changes only the manifolds and
+// constancy of the blocks it holds, in the problem it is handed.
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "calibration_blocks.h"
+#include "imu_intrinsics.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+class ObservabilityMonitor {
+ public:
+  ObservabilityMonitor(const Rig& rig, const EstimatorOptions& options,
+                       const CalibrationBlocks& calibration, const ImuIntrinsicsBlocks& intrinsics);
+
+  // Adds the base motion between window states at a and b (its readings over [a, b] and the gyro
+  // bias there).
+  void addMotion(TimeNs a, TimeNs b, const std::vector<ImuMeasurement>& readings,
+                 const Eigen::Vector3d& bias_gyro);
+  // Adds inertial sensor i's readings between window states (the later at t), for its
+  // intrinsics (ignored unless they are estimated).
+  void addReadingMoments(std::size_t i, TimeNs t, const std::vector<ImuMeasurement>& readings);
+  // Finds what the recent motion leaves unobservable, holds it and releases what it no longer
+  // does.
+  void check(ceres::Problem* problem);
+  // The latest findings, and per block the tangent directions (orthonormal columns) that what
+  // leaves the window must not inform.
+  const std::vector<UnobservableCalibration>& unobservable() const { return unobservable_; }
+  const std::map<const double*, Eigen::MatrixXd>& uninformative() const { return uninformative_; }
+
+  // The block's own manifold, also while it is held.
+  const ceres::Manifold* baseManifold(const ceres::Problem& problem, const double* block) const;
+  // Whether a block is estimated (not constant, or constant only while held).
+  bool estimated(const ceres::Problem& problem, const double* block) const;
+  // Covariance of a block in its own manifold's tangent (held directions with the variance they
+  // keep); NaN where the block was not in the computation.
+  Eigen::MatrixXd tangentCovariance(const ceres::Problem& problem, const ceres::Covariance& cov,
+                                    const double* block) const;
+  // The pose block's covariance with the held directions released at the uncertainty they kept
+  // (replaces *pose_cov): with them constant it would be as if they were known.
+  Status poseCovarianceWithHeld(ceres::Problem* problem, double* pose, int threads,
+                                Eigen::Matrix<double, 6, 6>* pose_cov);
+  bool holding() const { return !holds_.empty(); }
+  // Forgets everything (the problem the holds were in is gone).
+  void clear();
+
+ private:
+  // What the base IMU's motion between consecutive states tells the calibration (per unit
+  // noise density).
+  struct MotionInformation {
+    TimeNs t = 0;                                           // the later state's time
+    Eigen::Matrix3d translation = Eigen::Matrix3d::Zero();  // int (hat(a) + hat(w)^2)^T (...) dt
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
+    double time_offset = 0.0;                               // int |alpha|^2 dt
+  };
+  // Time-weighted moments of one sensor's readings between two window states.
+  struct ReadingMoments {
+    TimeNs t = 0;    // the later state's time
+    double T = 0.0;  // [s] covered
+    int n = 0;       // readings
+    Eigen::Vector3d w = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();    // int x dt
+    Eigen::Matrix3d ww = Eigen::Matrix3d::Zero(), aa = Eigen::Matrix3d::Zero();  // int x x^T dt
+    Eigen::Matrix3d wa = Eigen::Matrix3d::Zero();                                // int w a^T dt
+  };
+  // A block held along its unobservable directions: its own manifold, the subspace manifold in
+  // use (null: held whole, constant), the held directions and the variance each keeps.
+  struct Hold {
+    ceres::Manifold* base = nullptr;
+    std::unique_ptr<SubspaceManifold> subspace;
+    Eigen::MatrixXd directions;
+    Eigen::VectorXd variance;
+  };
+  struct Quantity;
+
+  void spatialQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
+  void intrinsicsQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
+  void applyHolds(ceres::Problem* problem);
+  // The latest tangent covariance of a calibration block: the full one for IMU intrinsics once
+  // computed, else diag(latest std^2).
+  Eigen::MatrixXd latestCovariance(const double* block) const;
+
+  const Rig& rig_;
+  const EstimatorOptions& options_;
+  const CalibrationBlocks& calibration_;
+  const ImuIntrinsicsBlocks& intrinsics_;
+  std::deque<MotionInformation> motion_;
+  std::vector<std::deque<ReadingMoments>> moments_;  // per inertial sensor
+  std::vector<UnobservableCalibration> unobservable_;
+  std::map<const double*, Eigen::MatrixXd> uninformative_;
+  std::map<const double*, Hold> holds_;
+};
+
+}  // namespace estimator_internal
+}  // namespace mvis

@@ -1,0 +1,69 @@
+#include "window.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+Window::Window(const EstimatorOptions& options) : options_(options) { reset(); }
+
+void Window::reset() {
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.enable_fast_removal = true;
+  problem_ = std::make_unique<ceres::Problem>(po);
+  states_.clear();
+}
+
+void Window::push(std::unique_ptr<State> state) {
+  problem_->AddParameterBlock(state->pose, kPoseSize, &pose_manifold_);
+  problem_->AddParameterBlock(state->speed_bias, kSpeedBiasSize);
+  states_.push_back(std::move(state));
+}
+
+void Window::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
+                       std::vector<double*> blocks) {
+  ResidualRecord r;
+  r.id = problem_->AddResidualBlock(cost, loss, blocks);
+  r.cost = cost;
+  r.loss = loss;
+  r.blocks = std::move(blocks);
+  owner->residuals.push_back(std::move(r));
+}
+
+SolveSummary Window::solve(int iterations, double max_time_s) {
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  o.max_num_iterations = iterations;
+  o.max_solver_time_in_seconds = max_time_s;
+  o.num_threads = options_.threads;
+  o.logging_type = ceres::SILENT;
+  ceres::Solver::Summary s;
+  ceres::Solve(o, problem_.get(), &s);
+  SolveSummary out = summary();
+  out.iterations = static_cast<int>(s.iterations.size());
+  out.solve_s = s.total_time_in_seconds;
+  out.cost = s.final_cost;
+  out.usable = s.IsSolutionUsable();
+  return out;
+}
+
+SolveSummary Window::summary() const {
+  SolveSummary out;
+  out.states = static_cast<int>(states_.size());
+  for (const auto& st : states_) {
+    out.frames += st->frames;
+    out.corners += st->corners;
+  }
+  return out;
+}
+
+void Window::removeOldest(const std::vector<double*>& leaving) {
+  const State& oldest = *states_.front();
+  for (const auto& r : oldest.residuals) problem_->RemoveResidualBlock(r.id);
+  for (double* block : leaving) problem_->RemoveParameterBlock(block);
+  past_.push_back(oldest.toEstimate());
+  states_.pop_front();
+}
+
+}  // namespace estimator_internal
+}  // namespace mvis

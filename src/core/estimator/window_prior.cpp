@@ -1,0 +1,47 @@
+#include "window_prior.h"
+
+#include <set>
+
+namespace mvis {
+namespace estimator_internal {
+
+StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
+    const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
+    const ManifoldOf& manifold_of,
+    const std::map<const double*, Eigen::MatrixXd>& uninformative) const {
+  Marginalizer m;
+  for (const auto& r : residuals) {
+    for (double* block : r.blocks) m.setManifold(block, manifold_of(block));
+    m.addResidual(r.cost, r.loss, r.blocks, true);
+  }
+  if (whole_) {
+    for (double* block : whole_->parameterBlocks()) m.setManifold(block, manifold_of(block));
+    m.addPrior(whole_.get());
+  }
+  for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
+  return m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
+}
+
+void WindowPrior::removeFrom(ceres::Problem* problem) {
+  for (const auto& r : rows_) problem->RemoveResidualBlock(r.id);
+  clear();
+}
+
+void WindowPrior::install(ceres::Problem* problem, std::unique_ptr<MarginalizationFactor> prior) {
+  for (auto& rows : prior->splitRows()) {
+    ResidualRecord r;
+    r.blocks = rows->parameterBlocks();
+    r.cost = rows.get();
+    r.id = problem->AddResidualBlock(rows.release(), nullptr, r.blocks);
+    rows_.push_back(std::move(r));
+  }
+  whole_ = std::move(prior);
+}
+
+void WindowPrior::clear() {
+  rows_.clear();
+  whole_.reset();
+}
+
+}  // namespace estimator_internal
+}  // namespace mvis

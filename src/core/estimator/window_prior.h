@@ -1,0 +1,52 @@
+// The marginalization prior of the window (MarginalizationFactor): made when the oldest state
+// leaves, from the factors leaving with it and the previous prior, and kept in the problem as one
+// residual block per row group. Private to src/core/estimator.
+//
+// Owns: the prior, as made and as its split rows in the problem. Asks of the others, through its
+// caller: the leaving state's residual records, the blocks that leave, each block's own manifold
+// (also while it is held) and the directions the leaving measurements must not inform (the
+// observability monitor's).
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "mvis/common/status.h"
+#include "mvis/factors/marginalization_factor.h"
+#include "window_state.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+class WindowPrior {
+ public:
+  using ManifoldOf = std::function<const ceres::Manifold*(const double* block)>;
+
+  // The prior after marginalizing `leaving` out of `residuals` and the current prior; nothing
+  // changes in the problem yet. The measurements add nothing along `uninformative` (per block,
+  // tangent directions as columns); the old prior keeps what earlier motion told.
+  StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(
+      const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
+      const ManifoldOf& manifold_of,
+      const std::map<const double*, Eigen::MatrixXd>& uninformative) const;
+  // Removes the current prior's rows from the problem and forgets it.
+  void removeFrom(ceres::Problem* problem);
+  // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense
+  // prior is its largest cost with many auxiliary sensors).
+  void install(ceres::Problem* problem, std::unique_ptr<MarginalizationFactor> prior);
+  // Forgets the prior without touching a problem (when the problem itself is replaced).
+  void clear();
+
+ private:
+  std::vector<ResidualRecord> rows_;
+  // The prior as made, before its rows were split: the next marginalization adds it through the
+  // information it keeps (Marginalizer::addPrior).
+  std::unique_ptr<MarginalizationFactor> whole_;
+};
+
+}  // namespace estimator_internal
+}  // namespace mvis
