@@ -62,7 +62,7 @@ diagnostic_msgs::DiagnosticStatus makeStatus(std::uint8_t level, const std::stri
 void MvisNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  diagnostics_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  out_.diagnostics = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
 
   options_ = NodeletOptions::fromParameters(pnh);
   if (const std::string problem = options_.validate(); !problem.empty()) {
@@ -78,14 +78,14 @@ void MvisNodelet::onInit() {
   NODELET_INFO_STREAM("mvis: loaded the rig from " << options_.config_dir << ":\n"
                                                    << rig_.summary());
 
-  odometry_pub_ = pnh.advertise<nav_msgs::Odometry>("odometry", 100);
-  path_pub_ = pnh.advertise<nav_msgs::Path>("path", 1, true);
-  calibration_pub_ = pnh.advertise<mvis::Calibration>("calibration", 1, true);
+  out_.odometry = pnh.advertise<nav_msgs::Odometry>("odometry", 100);
+  out_.path = pnh.advertise<nav_msgs::Path>("path", 1, true);
+  out_.calibration = pnh.advertise<mvis::Calibration>("calibration", 1, true);
   // Until the estimator has run, the calibration is the configured one, its uncertainty
   // not yet known (NaN standard deviations).
   mvis::Calibration calibration = ros_conversions::toCalibrationMsg(rig_, options_.frame_prefix);
   calibration.header.stamp = ros::Time::now();
-  calibration_pub_.publish(calibration);
+  out_.calibration.publish(calibration);
 
   TagFrontendOptions frontend_options;
   frontend_options.detector.decimate = options_.tag_decimate;
@@ -138,15 +138,16 @@ void MvisNodelet::onInit() {
                                  << " has no aprilgrid.yaml: tag corners are estimated as "
                                     "landmarks");
   }
-  tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-  tags_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("tags", 1, true);
+  out_.tf = std::make_unique<tf2_ros::TransformBroadcaster>();
+  out_.tags = pnh.advertise<visualization_msgs::MarkerArray>("tags", 1, true);
   publishTags();
   path_.header.frame_id = options_.world_frame;
-  save_service_ = pnh.advertiseService("save_calibration", &MvisNodelet::onSaveCalibration, this);
-  reset_service_ = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
+  in_.save_service =
+      pnh.advertiseService("save_calibration", &MvisNodelet::onSaveCalibration, this);
+  in_.reset_service = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
 
   subscribeSensors();
-  diagnostics_timer_ =
+  out_.diagnostics_timer =
       nh.createWallTimer(ros::WallDuration(options_.diagnostics_period_s),
                          [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
 }
@@ -154,7 +155,7 @@ void MvisNodelet::onInit() {
 void MvisNodelet::stayDown(const std::string& reason) {
   config_error_ = reason;
   NODELET_ERROR_STREAM("mvis: not starting: " << reason);
-  diagnostics_timer_ = getNodeHandle().createWallTimer(
+  out_.diagnostics_timer = getNodeHandle().createWallTimer(
       ros::WallDuration(options_.diagnostics_period_s > 0.0 ? options_.diagnostics_period_s : 1.0),
       [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
 }
@@ -165,24 +166,25 @@ void MvisNodelet::subscribeSensors() {
   for (std::size_t i = 0; i < rig_.inertial.size(); ++i) {
     const auto& s = rig_.inertial[i];
     traffic_.push_back({s.name, s.rostopic, s.update_rate, 0, 0, {}, 0, now});
-    subscribers_.push_back(nh.subscribe<sensor_msgs::Imu>(
+    in_.subscribers.push_back(nh.subscribe<sensor_msgs::Imu>(
         s.rostopic, 2000, [this, i](const sensor_msgs::ImuConstPtr& msg) { onImu(i, msg); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
-  image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);
-  private_image_transport_ =
+  in_.image_transport = std::make_unique<image_transport::ImageTransport>(nh);
+  in_.private_image_transport =
       std::make_unique<image_transport::ImageTransport>(getPrivateNodeHandle());
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     const auto& cam = rig_.cameras[c];
-    debug_image_pubs_.push_back(private_image_transport_->advertise(cam.name + "/debug_image", 1));
+    out_.debug_images.push_back(
+        in_.private_image_transport->advertise(cam.name + "/debug_image", 1));
     if (options_.camera_input == "image") {
       traffic_.push_back({cam.name, cam.rostopic, 0.0, 0, 0, {}, 0, now});
-      image_subscribers_.push_back(image_transport_->subscribe(
+      in_.image_subscribers.push_back(in_.image_transport->subscribe(
           cam.rostopic, 20, [this, c](const sensor_msgs::ImageConstPtr& msg) { onImage(c, msg); }));
     } else {
       const std::string topic = cam.rostopic + "/tag_detections";
       traffic_.push_back({cam.name, topic, 0.0, 0, 0, {}, 0, now});
-      subscribers_.push_back(nh.subscribe<mvis::TagDetectionArray>(
+      in_.subscribers.push_back(nh.subscribe<mvis::TagDetectionArray>(
           topic, 50,
           [this, c](const mvis::TagDetectionArrayConstPtr& msg) { onTagDetections(c, msg); }));
     }
@@ -238,7 +240,7 @@ void MvisNodelet::onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& 
     return;
   }
   recordTags(camera, result.value());
-  auto& debug_pub = debug_image_pubs_[camera];
+  auto& debug_pub = out_.debug_images[camera];
   if (debug_pub.getNumSubscribers() > 0) {
     debug_pub.publish(cv_bridge::CvImage(msg->header, sensor_msgs::image_encodings::BGR8,
                                          drawTagFrame(gray, result.value().frame))
@@ -292,7 +294,7 @@ void MvisNodelet::publishDiagnostics() {
   if (!config_error_.empty()) {
     array.status.push_back(
         makeStatus(diagnostic_msgs::DiagnosticStatus::ERROR, "configuration", config_error_));
-    diagnostics_pub_.publish(array);
+    out_.diagnostics.publish(array);
     return;
   }
   array.status.push_back(makeStatus(diagnostic_msgs::DiagnosticStatus::OK, "configuration",
@@ -375,7 +377,7 @@ void MvisNodelet::publishDiagnostics() {
     }
     array.status.push_back(status);
   }
-  diagnostics_pub_.publish(array);
+  out_.diagnostics.publish(array);
 }
 
 MvisNodelet::~MvisNodelet() {
@@ -418,7 +420,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
     transforms.push_back(
         stampedTransform(s.T_i_b.inverse(), stamp, base, options_.frame_prefix + s.name));
   }
-  tf_broadcaster_->sendTransform(transforms);
+  out_.tf->sendTransform(transforms);
   // Without a board the tags are estimates: republished after every solve.
   if (!rig_.target && u.solve.iterations > 0) publishTags();
 
@@ -438,7 +440,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   if (path_.poses.size() > 20000) {
     path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
   }
-  if (path_.poses.size() % 30 == 0) path_pub_.publish(path_);
+  if (path_.poses.size() % 30 == 0) out_.path.publish(path_);
   if (u.calibration_covariance_updated) publishCalibration();
 }
 
@@ -477,9 +479,9 @@ void MvisNodelet::onPropagated(const EstimatorState& state) {
   odom.twist.twist.angular.x = w_I.x();
   odom.twist.twist.angular.y = w_I.y();
   odom.twist.twist.angular.z = w_I.z();
-  odometry_pub_.publish(odom);
-  tf_broadcaster_->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
-                                  stampedTransform(state.T_G_I, stamp, board, base)});
+  out_.odometry.publish(odom);
+  out_.tf->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
+                          stampedTransform(state.T_G_I, stamp, board, base)});
 }
 
 void MvisNodelet::publishTags() {
@@ -530,7 +532,7 @@ void MvisNodelet::publishTags() {
     array.markers.push_back(label);
   }
   array.markers.push_back(squares);
-  tags_pub_.publish(array);
+  out_.tags.publish(array);
 }
 
 void MvisNodelet::publishCalibration() {
@@ -540,7 +542,7 @@ void MvisNodelet::publishCalibration() {
   if (have_update_) {
     for (const auto& d : last_update_.unobservable) msg.unobservable.push_back(d.text());
   }
-  calibration_pub_.publish(msg);
+  out_.calibration.publish(msg);
 }
 
 std::string MvisNodelet::saveResult() {

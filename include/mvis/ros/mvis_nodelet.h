@@ -90,19 +90,21 @@ class MvisNodelet : public nodelet::Nodelet {
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();
   nav_msgs::Path path_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
-  ros::ServiceServer save_service_, reset_service_;
-  std::unique_ptr<image_transport::ImageTransport> image_transport_;
-  std::unique_ptr<image_transport::ImageTransport> private_image_transport_;
-  std::vector<image_transport::Publisher> debug_image_pubs_;  // per camera, lazy
-  std::vector<ros::Subscriber> subscribers_;
-  std::vector<image_transport::Subscriber> image_subscribers_;
-  ros::Publisher odometry_pub_;
-  ros::Publisher path_pub_;
-  ros::Publisher calibration_pub_;
-  ros::Publisher tags_pub_;
-  ros::Publisher diagnostics_pub_;
-  ros::WallTimer diagnostics_timer_;
+  // What the nodelet listens to and serves.
+  struct Inputs {
+    std::unique_ptr<image_transport::ImageTransport> image_transport;
+    std::unique_ptr<image_transport::ImageTransport> private_image_transport;
+    std::vector<ros::Subscriber> subscribers;
+    std::vector<image_transport::Subscriber> image_subscribers;
+    ros::ServiceServer save_service, reset_service;
+  } in_;
+  // What it publishes.
+  struct Outputs {
+    ros::Publisher odometry, path, calibration, tags, diagnostics;
+    std::vector<image_transport::Publisher> debug_images;  // per camera, lazy
+    std::unique_ptr<tf2_ros::TransformBroadcaster> tf;
+    ros::WallTimer diagnostics_timer;
+  } out_;
 };
 
 }  // namespace mvis
