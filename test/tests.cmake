@@ -9,7 +9,8 @@ function(mvis_core_test name)
 endfunction()
 
 mvis_core_test(test_lie test/unit/test_lie.cpp)
-mvis_core_test(test_rig_io test/unit/test_rig_io.cpp test/unit/test_rig_io_errors.cpp)
+mvis_core_test(test_rig_io test/unit/test_rig_io.cpp test/unit/test_rig_io_errors.cpp
+  test/unit/test_rig_io_formats.cpp)
 
 # A ROS include inside the core must fail to compile, with a message that says why.
 add_library(mvis_ros_guard_probe OBJECT EXCLUDE_FROM_ALL test/unit/ros_include_guard_probe.cpp)

@@ -38,12 +38,14 @@ TEST(RigIoErrors, MissingKey) {
                               "  intrinsics: [458.654, 457.296, 367.215, 248.375]\n", "")),
             "cam.yaml: cam0: intrinsics: missing");
   const std::string no_extrinsic = validCamChain().substr(validCamChain().find("  cam_overlaps"));
-  EXPECT_EQ(camError("cam0:\n" + no_extrinsic), "cam.yaml: cam0: T_cam_imu: missing");
+  EXPECT_EQ(camError("cam0:\n" + no_extrinsic),
+            "cam.yaml: cam0: T_cam_imu: missing (the camera's pose relative to imu0)");
 }
 
 TEST(RigIoErrors, NonOrthonormalRotation) {
   EXPECT_EQ(imuError(replaced(validImuChain(), "[0.0, -1.0, 0.0, 0.05]", "[0.0, -1.1, 0.0, 0.05]")),
-            "imu.yaml: imu1: T_i_b: rotation part is not orthonormal (max |R^T R - I| = 0.21)");
+            "imu.yaml: imu1: T_i_b: rotation part is not orthonormal (max |R^T R - I| = 0.21; up "
+            "to 0.001 is taken as rounding)");
   EXPECT_EQ(camError(replaced(validCamChain(), "[0.0, -1.0, 0.0, 0.02]", "[0.0, 1.0, 0.0, 0.02]")),
             "cam.yaml: cam0: T_cam_imu: rotation part is a reflection (determinant -1)");
   EXPECT_EQ(imuError(replaced(validImuChain(), "    - [0.0, 0.0, 0.0, 1.0]\n  rostopic: /gyro",
@@ -53,11 +55,17 @@ TEST(RigIoErrors, NonOrthonormalRotation) {
 
 TEST(RigIoErrors, NotUpperTriangular) {
   EXPECT_EQ(imuError(replaced(validImuChain(), "[0.0, 0.998, 0.003]", "[0.01, 0.998, 0.003]")),
-            "imu.yaml: imu0: Tw: must be upper triangular (row 1, column 0 is 0.01)");
+            "imu.yaml: imu0: Tw: must be upper triangular for model rpng (row 1, column 0 is "
+            "0.01)");
   EXPECT_EQ(imuError(replaced(validImuChain(), "    - [0.0, 0.0, 1.002]\n",
                               "    - [0.0, 0.0, 1.002]\n  Ta:\n    - [1.0, 0.0, 0.0]\n"
                               "    - [0.0, 1.0, 0.0]\n    - [0.0, -0.2, 1.0]\n")),
-            "imu.yaml: imu0: Ta: must be upper triangular (row 2, column 1 is -0.2)");
+            "imu.yaml: imu0: Ta: must be upper triangular for model rpng (row 2, column 1 is "
+            "-0.2)");
+  // The same matrices under model kalibr: lower triangular is required.
+  EXPECT_EQ(imuError(replaced(validImuChain(), "model: rpng", "model: kalibr")),
+            "imu.yaml: imu0: Tw: must be lower triangular for model kalibr (row 0, column 1 is "
+            "0.002)");
 }
 
 TEST(RigIoErrors, NotANumber) {
@@ -77,25 +85,36 @@ TEST(RigIoErrors, NegativeNoiseDensity) {
 }
 
 TEST(RigIoErrors, UnknownModel) {
-  EXPECT_EQ(imuError(replaced(validImuChain(), "model: rpng", "model: kalibr")),
-            "imu.yaml: imu0: model: unknown model 'kalibr' (expected calibrated or rpng)");
+  EXPECT_EQ(imuError(replaced(validImuChain(), "model: rpng", "model: magic")),
+            "imu.yaml: imu0: model: unknown model 'magic' (expected calibrated, rpng or kalibr, "
+            "or Kalibr's scale-misalignment)");
+  EXPECT_EQ(
+      imuError(replaced(validImuChain(), "model: rpng", "model: scale-misalignment-size-effect")),
+      "imu.yaml: imu0: model: Kalibr's scale-misalignment-size-effect is not supported (mvis "
+      "does not model the accelerometers' size effect); calibrate with Kalibr's "
+      "scale-misalignment model, or use model: calibrated to take the readings as they are");
   EXPECT_EQ(
       imuError(replaced(validImuChain(), "sensor_type: gyroscope", "sensor_type: magnetometer")),
       "imu.yaml: imu2: sensor_type: unknown sensor type 'magnetometer' (expected imu or "
       "gyroscope)");
   EXPECT_EQ(
       camError(replaced(validCamChain(), "distortion_model: radtan", "distortion_model: fov")),
-      "cam.yaml: cam0: distortion_model: unknown distortion model 'fov' (expected radtan or "
+      "cam.yaml: cam0: distortion_model: Kalibr's distortion model 'fov' is not supported (mvis "
+      "supports radtan and equidistant: calibrate with Kalibr's pinhole-radtan or pinhole-equi)");
+  EXPECT_EQ(
+      camError(replaced(validCamChain(), "distortion_model: radtan", "distortion_model: plumb")),
+      "cam.yaml: cam0: distortion_model: unknown distortion model 'plumb' (expected radtan or "
       "equidistant)");
   EXPECT_EQ(camError(replaced(validCamChain(), "camera_model: pinhole", "camera_model: omni")),
-            "cam.yaml: cam0: camera_model: unsupported camera model 'omni' (mvis supports "
-            "pinhole)");
+            "cam.yaml: cam0: camera_model: Kalibr's camera model 'omni' is not supported (mvis "
+            "supports pinhole, with radtan or equidistant distortion: calibrate with Kalibr's "
+            "pinhole-radtan or pinhole-equi)");
 }
 
 TEST(RigIoErrors, CalibratedModelFixesIntrinsics) {
   EXPECT_EQ(imuError(replaced(validImuChain(), "model: rpng", "model: calibrated")),
             "imu.yaml: imu0: Tw: model is calibrated, which fixes it at its default; set model: "
-            "rpng to use it");
+            "rpng or kalibr to use it");
 }
 
 TEST(RigIoErrors, DuplicateTopic) {

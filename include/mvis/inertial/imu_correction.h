@@ -1,19 +1,20 @@
-// Readings corrected by an inertial sensor's known intrinsics (the rpng model, report Eq. 1-4,
-// rig.h), so that the estimator can treat every sensor as calibrated.
+// Readings corrected by an inertial sensor's known intrinsics (report Eq. 1-4, rig.h: the rpng
+// and kalibr models alike), so that the estimator can treat every sensor as calibrated.
 //
-// With R_IMUtoGYRO = I (mvis puts the inertial frame on the gyroscope):
-//   a_m = Ta R_IMUtoACC a_I + b_a,   w_m = Tw w_I + Tg a_I + b_g.
-// The corrected readings
-//   a' = R_IMUtoACC^T Ta^-1 a_m = a_I + b_a'
-//   w' = Tw^-1 (w_m - Tg a')    = w_I + b_g'
+// With the model
+//   a_m = Ta R_IMUtoACC a_I + b_a,   w_m = Tw R_IMUtoGYRO w_I + Tg a_I + b_g
+// (rpng: R_IMUtoGYRO = I; kalibr: R_IMUtoACC = I), the corrected readings
+//   a' = R_IMUtoACC^T Ta^-1 a_m                 = a_I + b_a'
+//   w' = R_IMUtoGYRO^T Tw^-1 (w_m - Tg a')       = w_I + b_g'
 // follow the calibrated model with the biases
-//   b_a' = R_IMUtoACC^T Ta^-1 b_a,   b_g' = Tw^-1 (b_g - Tg b_a'),
+//   b_a' = R_IMUtoACC^T Ta^-1 b_a,   b_g' = R_IMUtoGYRO^T Tw^-1 (b_g - Tg b_a'),
 // which are what the estimator's bias states then hold (they still walk randomly; the noise
 // densities change by the intrinsics' few parts per thousand, which is ignored). A gyroscope has
-// no accelerometer: w' = Tw^-1 w_m, and its Tg must be zero (Estimator::create refuses it).
+// no accelerometer: w' = R_IMUtoGYRO^T Tw^-1 w_m, and its Tg must be zero (Estimator::create
+// refuses it).
 //
-// The intrinsics are taken as known here; estimating them is the intrinsics issue's
-// re-integration.
+// The intrinsics are taken as known here; estimating them is the re-integration's
+// (imu_reintegration.h).
 #pragma once
 
 #include <Eigen/Core>
@@ -25,8 +26,8 @@ namespace mvis {
 
 struct ImuCorrection {
   Eigen::Matrix3d to_accel = Eigen::Matrix3d::Identity();  // R_IMUtoACC^T Ta^-1
-  Eigen::Matrix3d to_gyro = Eigen::Matrix3d::Identity();   // Tw^-1
-  Eigen::Matrix3d gravity = Eigen::Matrix3d::Zero();       // Tw^-1 Tg
+  Eigen::Matrix3d to_gyro = Eigen::Matrix3d::Identity();   // R_IMUtoGYRO^T Tw^-1
+  Eigen::Matrix3d gravity = Eigen::Matrix3d::Zero();       // to_gyro Tg
   bool identity = true;                                    // nothing to correct
 
   explicit ImuCorrection(const ImuIntrinsics& intrinsics = ImuIntrinsics());

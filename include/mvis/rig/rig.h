@@ -15,7 +15,8 @@
 namespace mvis {
 
 enum class InertialType { kImu, kGyroscope };
-enum class ImuModel { kCalibrated, kRpng };
+// How an inertial sensor's intrinsics are parametrized (OpenVINS's models, see ImuIntrinsics).
+enum class ImuModel { kCalibrated, kRpng, kKalibr };
 enum class DistortionModel { kRadtan, kEquidistant };
 
 const char* toString(InertialType type);
@@ -43,10 +44,12 @@ struct ImuNoise {
   double gyroscope_random_walk = 0.0;        // [rad/s^2/sqrt(Hz)]
 };
 
-// The rpng intrinsic model (report Eq. 1-4):
+// The intrinsic model (report Eq. 1-4):
 //   w_m = Tw * R_IMUtoGYRO * w_I + Tg * a_I + b_g + n_g
 //   a_m = Ta * R_IMUtoACC * a_I + b_a + n_a
-// Tw, Ta upper triangular; R_IMUtoGYRO identity; Tg full. Identity/zero when 'calibrated'.
+// rpng: Tw, Ta upper triangular, R_IMUtoGYRO identity ({I} on the gyroscope), Tg full.
+// kalibr: Tw, Ta lower triangular, R_IMUtoACC identity ({I} on the accelerometer), Tg full
+// (Kalibr's gyroscopes M, C_gyro_i, A and accelerometers M). Identity/zero when 'calibrated'.
 struct ImuIntrinsics {
   Eigen::Matrix3d Tw = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d R_IMUtoGYRO = Eigen::Matrix3d::Identity();

@@ -6,7 +6,7 @@ namespace mvis {
 
 ImuCorrection::ImuCorrection(const ImuIntrinsics& in) {
   to_accel = in.R_IMUtoACC.transpose() * in.Ta.inverse();
-  to_gyro = in.Tw.inverse();
+  to_gyro = in.R_IMUtoGYRO.transpose() * in.Tw.inverse();
   gravity = to_gyro * in.Tg;
   identity = to_accel.isIdentity(0.0) && to_gyro.isIdentity(0.0) && gravity.isZero(0.0);
 }

@@ -13,11 +13,14 @@ using rig_io::formatMatrix;
 using rig_io::formatNumber;
 using rig_io::formatRow;
 
-const std::set<std::string> kCameraKeys = {"T_cam_imu",    "T_imu_cam",        "timeshift_cam_imu",
-                                           "camera_model", "distortion_model", "distortion_coeffs",
-                                           "intrinsics",   "resolution",       "rostopic"};
-// Keys other tools write that mvis does not use.
+const std::set<std::string> kCameraKeys = {
+    "T_cam_imu",         "T_imu_cam",  "timeshift_cam_imu", "camera_model", "distortion_model",
+    "distortion_coeffs", "intrinsics", "resolution",        "rostopic",     "T_cn_cnm1"};
+// Keys other tools write that mvis does not use (Kalibr: which cameras see the same target).
 const std::set<std::string> kIgnoredCameraKeys = {"cam_overlaps"};
+// T_cn_cnm1 against the T_cam_imu chain: a disagreement beyond this is more than printing
+// precision [rad, m].
+constexpr double kChainTolerance = 1e-4;
 
 std::optional<CameraCalibrationStd> readStd(const EntryReader& entry) {
   const std::vector<std::string> keys = {"T_cam_imu_std", "timeshift_cam_imu_std", "intrinsics_std",
@@ -41,7 +44,8 @@ std::optional<CameraCalibrationStd> readStd(const EntryReader& entry) {
   return std;
 }
 
-Camera readCamera(const EntryReader& entry, const std::string& name) {
+// Camera `name`; `previous` is the camera before it (for Kalibr's T_cn_cnm1), null for cam0.
+Camera readCamera(const EntryReader& entry, const std::string& name, const Camera* previous) {
   entry.rejectUnknownKeys(kCameraKeys, kIgnoredCameraKeys);
   Camera cam;
   cam.name = name;
@@ -52,21 +56,50 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
   }
   if (has_imu_cam) {
     cam.T_cam_imu = entry.transform("T_imu_cam").inverse();
+  } else if (has_cam_imu) {
+    cam.T_cam_imu = entry.transform("T_cam_imu");
   } else {
-    cam.T_cam_imu = entry.transform("T_cam_imu");  // fails with "missing" if neither is there
+    entry.fail("T_cam_imu",
+               std::string("missing (the camera's pose relative to imu0") +
+                   (entry.has("T_cn_cnm1") ? "; a camchain from kalibr_calibrate_cameras has "
+                                             "none: use the camchain-imucam file that "
+                                             "kalibr_calibrate_imu_camera writes)"
+                                           : ")"));
+  }
+  if (entry.has("T_cn_cnm1")) {
+    // Kalibr's camera n from camera n-1: redundant with the T_cam_imu chain; checked.
+    if (previous == nullptr) entry.fail("T_cn_cnm1", "cam0 has no camera before it");
+    const SE3 given = entry.transform("T_cn_cnm1");
+    const SE3 chain = cam.T_cam_imu * previous->T_cam_imu.inverse();
+    const double angle = lie::logQuat(given.q.conjugate() * chain.q).norm();
+    const double distance = (given.p - chain.p).norm();
+    if (angle > kChainTolerance || distance > kChainTolerance) {
+      entry.warn("T_cn_cnm1", "disagrees with " + name + " and " + previous->name +
+                                  "'s T_cam_imu by " + formatNumber(angle) + " rad and " +
+                                  formatNumber(distance) + " m; mvis uses T_cam_imu");
+    }
   }
   cam.timeshift_cam_imu = entry.number("timeshift_cam_imu", 0.0);
 
   const std::string camera_model = entry.text("camera_model", "pinhole");
   if (camera_model != "pinhole") {
+    const bool kalibr = camera_model == "omni" || camera_model == "ds" || camera_model == "eucm";
     entry.fail("camera_model",
-               "unsupported camera model '" + camera_model + "' (mvis supports pinhole)");
+               (kalibr ? "Kalibr's camera model '" + camera_model + "' is not supported"
+                       : "unknown camera model '" + camera_model + "'") +
+                   " (mvis supports pinhole, with radtan or equidistant distortion: calibrate "
+                   "with Kalibr's pinhole-radtan or pinhole-equi)");
   }
   const std::string distortion = entry.text("distortion_model");
   if (distortion == "radtan") {
     cam.distortion_model = DistortionModel::kRadtan;
   } else if (distortion == "equidistant") {
     cam.distortion_model = DistortionModel::kEquidistant;
+  } else if (distortion == "fov" || distortion == "none") {
+    entry.fail("distortion_model",
+               "Kalibr's distortion model '" + distortion +
+                   "' is not supported (mvis supports radtan and equidistant: calibrate with "
+                   "Kalibr's pinhole-radtan or pinhole-equi)");
   } else {
     entry.fail("distortion_model",
                "unknown distortion model '" + distortion + "' (expected radtan or equidistant)");
@@ -91,12 +124,14 @@ Camera readCamera(const EntryReader& entry, const std::string& name) {
 
 }  // namespace
 
-StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text, const std::string& path) {
+StatusOr<std::vector<Camera>> parseCamChain(const std::string& yaml_text, const std::string& path,
+                                            std::vector<std::string>* warnings) {
   return rig_io::guardedParse(path, [&] {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<Camera> cameras;
     for (const auto& name : rig_io::numberedEntries(root, "cam", path)) {
-      cameras.push_back(readCamera(EntryReader(root[name], path, name), name));
+      cameras.push_back(readCamera(EntryReader(root[name], path, name, warnings), name,
+                                   cameras.empty() ? nullptr : &cameras.back()));
     }
     rig_io::requireUniqueTopics(cameras, path);
     return cameras;

@@ -13,48 +13,88 @@ using rig_io::formatMatrix;
 using rig_io::formatNumber;
 using rig_io::formatRow;
 
-const std::set<std::string> kImuKeys = {"T_i_b",
-                                        "time_offset",
-                                        "rostopic",
-                                        "update_rate",
-                                        "sensor_type",
-                                        "model",
-                                        "Tw",
-                                        "R_IMUtoGYRO",
-                                        "Ta",
-                                        "R_IMUtoACC",
-                                        "Tg",
-                                        "accelerometer_noise_density",
-                                        "accelerometer_random_walk",
-                                        "gyroscope_noise_density",
-                                        "gyroscope_random_walk"};
+const std::set<std::string> kImuKeys = {
+    "T_i_b", "time_offset", "rostopic", "update_rate", "sensor_type", "model", "Tw", "R_IMUtoGYRO",
+    "Ta", "R_IMUtoACC", "Tg", "accelerometer_noise_density", "accelerometer_random_walk",
+    "gyroscope_noise_density", "gyroscope_random_walk",
+    // Kalibr's IMU result files (kalibr_calibrate_imu_camera)
+    "gyroscopes", "accelerometers"};
 
 constexpr double kExactTolerance = 1e-9;  // for "must be identity" / "upper triangular"
 
-void requireUpperTriangular(const EntryReader& entry, const std::string& key,
-                            const Eigen::Matrix3d& T) {
-  for (int r = 1; r < 3; ++r) {
-    for (int c = 0; c < r; ++c) {
-      if (std::abs(T(r, c)) > kExactTolerance) {
-        entry.fail(key, "must be upper triangular (row " + std::to_string(r) + ", column " +
-                            std::to_string(c) + " is " + formatNumber(T(r, c)) + ")");
-      }
+// Tw or Ta of the rpng (upper triangular) or kalibr (lower triangular) model, with a positive
+// diagonal.
+void requireTriangular(const EntryReader& entry, const std::string& key, const Eigen::Matrix3d& T,
+                       bool upper) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      if ((upper ? r <= c : r >= c) || std::abs(T(r, c)) <= kExactTolerance) continue;
+      entry.fail(key, std::string("must be ") + (upper ? "upper" : "lower") +
+                          " triangular for model " + (upper ? "rpng" : "kalibr") + " (row " +
+                          std::to_string(r) + ", column " + std::to_string(c) + " is " +
+                          formatNumber(T(r, c)) + ")");
     }
   }
   if (T.diagonal().minCoeff() <= 0.0) entry.fail(key, "diagonal must be positive");
 }
 
+// Kalibr's IMU model names (kalibr_calibrate_imu_camera's imu.yaml) onto mvis's.
+ImuModel kalibrResultModel(const EntryReader& entry, const std::string& model) {
+  if (model == "scale-misalignment") return ImuModel::kKalibr;
+  if (model == "scale-misalignment-size-effect") {
+    entry.fail("model",
+               "Kalibr's scale-misalignment-size-effect is not supported (mvis does not model "
+               "the accelerometers' size effect); calibrate with Kalibr's scale-misalignment "
+               "model, or use model: calibrated to take the readings as they are");
+  }
+  entry.fail("model", "unknown model '" + model +
+                          "' (expected calibrated, rpng or kalibr, or Kalibr's "
+                          "scale-misalignment)");
+}
+
 ImuIntrinsics readIntrinsics(const EntryReader& entry, ImuModel model) {
   ImuIntrinsics in;
-  if (entry.has("Tw")) in.Tw = entry.matrix("Tw", 3, 3);
-  if (entry.has("Ta")) in.Ta = entry.matrix("Ta", 3, 3);
-  if (entry.has("Tg")) in.Tg = entry.matrix("Tg", 3, 3);
-  if (entry.has("R_IMUtoGYRO")) in.R_IMUtoGYRO = entry.rotation("R_IMUtoGYRO");
-  if (entry.has("R_IMUtoACC")) in.R_IMUtoACC = entry.rotation("R_IMUtoACC");
-  requireUpperTriangular(entry, "Tw", in.Tw);
-  requireUpperTriangular(entry, "Ta", in.Ta);
-  if (!in.R_IMUtoGYRO.isIdentity(kExactTolerance)) {
-    entry.fail("R_IMUtoGYRO", "must be identity (mvis puts the inertial frame on the gyroscope)");
+  if (entry.has("gyroscopes") || entry.has("accelerometers")) {
+    // A Kalibr IMU result file: gyroscopes {M: Tw, C_gyro_i: R_IMUtoGYRO, A: Tg},
+    // accelerometers {M: Ta} (the mapping OpenVINS documents for its kalibr model).
+    for (const char* key : {"Tw", "Ta", "Tg", "R_IMUtoGYRO", "R_IMUtoACC"}) {
+      if (entry.has(key)) {
+        entry.fail(key,
+                   "give the intrinsics either as Kalibr's gyroscopes/accelerometers or as "
+                   "Tw, Ta, Tg, R_IMUtoGYRO, R_IMUtoACC, not both");
+      }
+    }
+    if (entry.has("gyroscopes")) {
+      const EntryReader g = entry.child("gyroscopes");
+      g.rejectUnknownKeys({"M", "A", "C_gyro_i"});
+      if (g.has("M")) in.Tw = g.matrix("M", 3, 3);
+      if (g.has("A")) in.Tg = g.matrix("A", 3, 3);
+      if (g.has("C_gyro_i")) in.R_IMUtoGYRO = g.rotation("C_gyro_i");
+    }
+    if (entry.has("accelerometers")) {
+      const EntryReader a = entry.child("accelerometers");
+      a.rejectUnknownKeys({"M"});
+      if (a.has("M")) in.Ta = a.matrix("M", 3, 3);
+    }
+  } else {
+    if (entry.has("Tw")) in.Tw = entry.matrix("Tw", 3, 3);
+    if (entry.has("Ta")) in.Ta = entry.matrix("Ta", 3, 3);
+    if (entry.has("Tg")) in.Tg = entry.matrix("Tg", 3, 3);
+    if (entry.has("R_IMUtoGYRO")) in.R_IMUtoGYRO = entry.rotation("R_IMUtoGYRO");
+    if (entry.has("R_IMUtoACC")) in.R_IMUtoACC = entry.rotation("R_IMUtoACC");
+  }
+  const bool kalibr = model == ImuModel::kKalibr;
+  requireTriangular(entry, "Tw", in.Tw, !kalibr);
+  requireTriangular(entry, "Ta", in.Ta, !kalibr);
+  if (model == ImuModel::kRpng && !in.R_IMUtoGYRO.isIdentity(kExactTolerance)) {
+    entry.fail("R_IMUtoGYRO",
+               "must be identity for model rpng (its inertial frame is the gyroscope's; "
+               "model kalibr has R_IMUtoGYRO and an identity R_IMUtoACC instead)");
+  }
+  if (kalibr && !in.R_IMUtoACC.isIdentity(kExactTolerance)) {
+    entry.fail("R_IMUtoACC",
+               "must be identity for model kalibr (its inertial frame is the accelerometer's; "
+               "model rpng has R_IMUtoACC and an identity R_IMUtoGYRO instead)");
   }
   if (model == ImuModel::kCalibrated) {
     const ImuIntrinsics identity;
@@ -62,13 +102,14 @@ ImuIntrinsics readIntrinsics(const EntryReader& entry, ImuModel model) {
                            const Eigen::Matrix3d& expected) {
       if (!(value - expected).isZero(kExactTolerance)) {
         entry.fail(key,
-                   "model is calibrated, which fixes it at its default; set model: rpng "
-                   "to use it");
+                   "model is calibrated, which fixes it at its default; set model: rpng or "
+                   "kalibr to use it");
       }
     };
     check("Tw", in.Tw, identity.Tw);
     check("Ta", in.Ta, identity.Ta);
     check("Tg", in.Tg, identity.Tg);
+    check("R_IMUtoGYRO", in.R_IMUtoGYRO, identity.R_IMUtoGYRO);
     check("R_IMUtoACC", in.R_IMUtoACC, identity.R_IMUtoACC);
   }
   return in;
@@ -140,8 +181,10 @@ InertialSensor readInertial(const EntryReader& entry, const std::string& name, b
     s.model = ImuModel::kCalibrated;
   } else if (model == "rpng") {
     s.model = ImuModel::kRpng;
+  } else if (model == "kalibr") {
+    s.model = ImuModel::kKalibr;
   } else {
-    entry.fail("model", "unknown model '" + model + "' (expected calibrated or rpng)");
+    s.model = kalibrResultModel(entry, model);
   }
   s.intrinsics = readIntrinsics(entry, s.model);
   s.std = readStd(entry);
@@ -161,12 +204,14 @@ void writeStd(std::ostream& out, const InertialCalibrationStd& std) {
 }  // namespace
 
 StatusOr<std::vector<InertialSensor>> parseImuChain(const std::string& yaml_text,
-                                                    const std::string& path) {
+                                                    const std::string& path,
+                                                    std::vector<std::string>* warnings) {
   return rig_io::guardedParse(path, [&] {
     const YAML::Node root = rig_io::parseYamlText(yaml_text, path);
     std::vector<InertialSensor> sensors;
     for (const auto& name : rig_io::numberedEntries(root, "imu", path)) {
-      sensors.push_back(readInertial(EntryReader(root[name], path, name), name, sensors.empty()));
+      sensors.push_back(
+          readInertial(EntryReader(root[name], path, name, warnings), name, sensors.empty()));
     }
     rig_io::requireUniqueTopics(sensors, path);
     return sensors;

@@ -8,7 +8,15 @@ namespace mvis {
 const char* toString(InertialType type) { return type == InertialType::kImu ? "imu" : "gyroscope"; }
 
 const char* toString(ImuModel model) {
-  return model == ImuModel::kCalibrated ? "calibrated" : "rpng";
+  switch (model) {
+    case ImuModel::kCalibrated:
+      return "calibrated";
+    case ImuModel::kRpng:
+      return "rpng";
+    case ImuModel::kKalibr:
+      return "kalibr";
+  }
+  return "calibrated";
 }
 
 const char* toString(DistortionModel model) {

@@ -69,26 +69,39 @@ std::string aprilGridToYaml(const AprilGrid& grid) {
   return out.str();
 }
 
-StatusOr<Rig> loadRig(const std::string& directory) {
-  const fs::path dir(directory);
-  if (!fs::is_directory(dir)) {
+RigFiles RigFiles::in(const std::string& directory, const std::string& imu_chain,
+                      const std::string& cam_chain, const std::string& target) {
+  const auto resolve = [&](const std::string& name, const char* fallback) {
+    const fs::path given(name.empty() ? fallback : name);
+    return (given.is_absolute() ? given : fs::path(directory) / given).string();
+  };
+  return {resolve(imu_chain, kImuChainFile), resolve(cam_chain, kCamChainFile),
+          resolve(target, kAprilGridFile)};
+}
+
+StatusOr<Rig> loadRig(const std::string& directory, std::vector<std::string>* warnings) {
+  if (!fs::is_directory(fs::path(directory))) {
     return Status::Error(directory +
                          ": not a directory (expected a configuration directory "
                          "holding " +
                          kImuChainFile + " and " + kCamChainFile + ")");
   }
+  return loadRig(RigFiles::in(directory), warnings);
+}
+
+StatusOr<Rig> loadRig(const RigFiles& files, std::vector<std::string>* warnings) {
   Rig rig;
-  const fs::path imu_path = dir / kImuChainFile;
+  const fs::path imu_path = files.imu_chain;
   const auto imu_text = readFile(imu_path);
   if (!imu_text) return Status::Error(imu_path.string() + ": cannot read the file");
-  auto inertial = parseImuChain(*imu_text, imu_path.string());
+  auto inertial = parseImuChain(*imu_text, imu_path.string(), warnings);
   if (!inertial.ok()) return inertial.status();
   rig.inertial = std::move(inertial).value();
 
-  const fs::path cam_path = dir / kCamChainFile;
+  const fs::path cam_path = files.cam_chain;
   const auto cam_text = readFile(cam_path);
   if (!cam_text) return Status::Error(cam_path.string() + ": cannot read the file");
-  auto cameras = parseCamChain(*cam_text, cam_path.string());
+  auto cameras = parseCamChain(*cam_text, cam_path.string(), warnings);
   if (!cameras.ok()) return cameras.status();
   rig.cameras = std::move(cameras).value();
 
@@ -99,12 +112,13 @@ StatusOr<Rig> loadRig(const std::string& directory) {
     const auto it = topics.find(c.rostopic);
     if (it != topics.end()) {
       return Status::Error(cam_path.string() + ": " + c.name + ": rostopic: '" + c.rostopic +
-                           "' is already used by " + it->second + " in " + kImuChainFile);
+                           "' is already used by " + it->second + " in " +
+                           imu_path.filename().string());
     }
   }
 
-  const fs::path grid_path = dir / kAprilGridFile;
-  if (fs::exists(grid_path)) {
+  const fs::path grid_path = files.target;
+  if (!grid_path.empty() && fs::exists(grid_path)) {
     const auto grid_text = readFile(grid_path);
     if (!grid_text) return Status::Error(grid_path.string() + ": cannot read the file");
     auto grid = parseAprilGrid(*grid_text, grid_path.string());

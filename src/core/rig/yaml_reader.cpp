@@ -10,7 +10,8 @@
 namespace mvis::rig_io {
 
 namespace {
-constexpr double kRotationTolerance = 1e-6;  // max |R^T R - I| accepted in a file
+constexpr double kRotationTolerance = 1e-6;  // max |R^T R - I| taken as printing precision
+constexpr double kRotationRepair = 1e-3;     // max |R^T R - I| repaired with a warning
 
 std::string formatG(double value) {
   char buffer[32];
@@ -35,8 +36,12 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path) {
   }
 }
 
-EntryReader::EntryReader(YAML::Node node, std::string path, std::string sensor)
-    : node_(std::move(node)), path_(std::move(path)), sensor_(std::move(sensor)) {
+EntryReader::EntryReader(YAML::Node node, std::string path, std::string sensor,
+                         std::vector<std::string>* warnings)
+    : node_(std::move(node)),
+      path_(std::move(path)),
+      sensor_(std::move(sensor)),
+      warnings_(warnings) {
   if (!node_.IsMap()) {
     throw ConfigError(path_ + (sensor_.empty() ? "" : ": " + sensor_) + ": expected a mapping");
   }
@@ -48,6 +53,10 @@ std::string EntryReader::prefix(const std::string& key) const {
 
 void EntryReader::fail(const std::string& key, const std::string& problem) const {
   throw ConfigError(prefix(key) + problem);
+}
+
+void EntryReader::warn(const std::string& key, const std::string& what) const {
+  if (warnings_ != nullptr) warnings_->push_back(prefix(key) + what);
 }
 
 bool EntryReader::has(const std::string& key) const { return static_cast<bool>(node_[key]); }
@@ -124,11 +133,18 @@ Eigen::MatrixXd EntryReader::matrix(const std::string& key, int rows, int cols) 
 Eigen::Matrix3d EntryReader::checkedRotation(const Eigen::Matrix3d& R, const std::string& key,
                                              const std::string& what) const {
   const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (error > kRotationTolerance) {
-    fail(key, what + " is not orthonormal (max |R^T R - I| = " + formatG(error) + ")");
+  if (!(error <= kRotationRepair)) {
+    fail(key, what + " is not orthonormal (max |R^T R - I| = " + formatG(error) + "; up to " +
+                  formatG(kRotationRepair) + " is taken as rounding)");
   }
   if (R.determinant() < 0.0) fail(key, what + " is a reflection (determinant -1)");
-  return lie::nearestRotation(R);
+  const Eigen::Matrix3d nearest = lie::nearestRotation(R);
+  if (error > kRotationTolerance) {
+    warn(key, what + " is not orthonormal (max |R^T R - I| = " + formatG(error) +
+                  "): using the nearest rotation, which changes its entries by up to " +
+                  formatG((nearest - R).cwiseAbs().maxCoeff()));
+  }
+  return nearest;
 }
 
 Eigen::Matrix3d EntryReader::rotation(const std::string& key) const {
@@ -147,7 +163,7 @@ SE3 EntryReader::transform(const std::string& key) const {
 EntryReader EntryReader::child(const std::string& key) const {
   if (!has(key)) fail(key, "missing");
   if (!node_[key].IsMap()) fail(key, "expected a mapping");
-  return EntryReader(node_[key], path_, sensor_.empty() ? key : sensor_ + ": " + key);
+  return EntryReader(node_[key], path_, sensor_.empty() ? key : sensor_ + ": " + key, warnings_);
 }
 
 double EntryReader::nonNegativeNumber(const std::string& key) const {

@@ -25,10 +25,13 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path);
 
 class EntryReader {
  public:
-  // `sensor` may be empty for a file-level mapping.
-  EntryReader(YAML::Node node, std::string path, std::string sensor);
+  // `sensor` may be empty for a file-level mapping. Warnings (a value used after a correction)
+  // go to `warnings` when given, as "FILE: SENSOR: KEY: what".
+  EntryReader(YAML::Node node, std::string path, std::string sensor,
+              std::vector<std::string>* warnings = nullptr);
 
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+  void warn(const std::string& key, const std::string& what) const;
 
   bool has(const std::string& key) const;
   double number(const std::string& key) const;  // finite
@@ -39,7 +42,9 @@ class EntryReader {
   std::string text(const std::string& key, const std::string& fallback) const;
   Eigen::VectorXd vector(const std::string& key, int size) const;
   Eigen::MatrixXd matrix(const std::string& key, int rows, int cols) const;
-  // A 3x3 rotation matrix: orthonormal within 1e-6 and det +1; returned re-orthonormalized.
+  // A 3x3 rotation matrix, det +1, returned as the nearest rotation: orthonormal within 1e-6
+  // silently (printing precision), within 1e-3 with a warning showing the correction (files
+  // with rotations printed to five or six digits); further off it is refused.
   Eigen::Matrix3d rotation(const std::string& key) const;
   // A 4x4 rigid transform: rotation block as above, bottom row [0 0 0 1].
   SE3 transform(const std::string& key) const;
@@ -62,6 +67,7 @@ class EntryReader {
   YAML::Node node_;
   std::string path_;
   std::string sensor_;
+  std::vector<std::string>* warnings_;
 };
 
 // Sensor keys "imu0", "imu1", ... of a chain file in index order; refuses other top-level keys
