@@ -4,6 +4,7 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
 
 namespace mvis::ros_conversions {
 namespace {
@@ -165,6 +166,41 @@ bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* w
     return false;
   }
   return true;
+}
+
+bool toGray(const sensor_msgs::CompressedImage& msg, cv::Mat* gray, std::string* why) {
+  if (msg.data.empty()) {
+    *why = "compressed image without data";
+    return false;
+  }
+  cv::Mat decoded;
+  try {
+    decoded = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+  } catch (const cv::Exception& e) {
+    *why = "cannot decode the compressed image (format '" + msg.format + "'): " + e.what();
+    return false;
+  }
+  if (decoded.empty()) {
+    *why = "cannot decode the compressed image (format '" + msg.format + "', " +
+           std::to_string(msg.data.size()) + " bytes): not a JPEG or PNG OpenCV can read";
+    return false;
+  }
+  if (decoded.depth() == CV_8U) {
+    *gray = decoded;
+  } else if (decoded.depth() == CV_16U) {
+    decoded.convertTo(*gray, CV_8U, 255.0 / 65535.0);
+  } else {
+    *why = "compressed image of an unsupported depth (format '" + msg.format + "')";
+    return false;
+  }
+  return true;
+}
+
+sensor_msgs::CompressedImage toCompressedPng(const cv::Mat& gray) {
+  sensor_msgs::CompressedImage msg;
+  msg.format = "mono8; png compressed";
+  cv::imencode(".png", gray, msg.data);
+  return msg;
 }
 
 }  // namespace mvis::ros_conversions

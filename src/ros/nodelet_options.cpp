@@ -5,6 +5,9 @@ namespace mvis {
 NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   NodeletOptions o;
   nh.param("config_dir", o.config_dir, o.config_dir);
+  nh.param("imu_chain", o.imu_chain, o.imu_chain);
+  nh.param("cam_chain", o.cam_chain, o.cam_chain);
+  nh.param("target", o.target, o.target);
   nh.param("world_frame", o.world_frame, o.world_frame);
   nh.param("frame_prefix", o.frame_prefix, o.frame_prefix);
   nh.param("camera_input", o.camera_input, o.camera_input);
@@ -47,9 +50,9 @@ std::string NodeletOptions::validate() const {
            "kalibr_imucam_chain.yaml and optionally aprilgrid.yaml)";
   }
   if (world_frame.empty()) return "parameter ~world_frame must not be empty";
-  if (camera_input != "image" && camera_input != "tag_detections") {
-    return "parameter ~camera_input must be 'image' or 'tag_detections', got '" + camera_input +
-           "'";
+  if (camera_input != "image" && camera_input != "compressed" && camera_input != "tag_detections") {
+    return "parameter ~camera_input must be 'image', 'compressed' or 'tag_detections', got '" +
+           camera_input + "'";
   }
   if (!(diagnostics_period_s > 0.0)) return "parameter ~diagnostics_period must be positive";
   if (!(sensor_timeout_s > 0.0)) return "parameter ~sensor_timeout must be positive";

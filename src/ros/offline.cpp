@@ -3,11 +3,13 @@
 #include <mvis/TagDetectionArray.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 
 #include <chrono>
 #include <map>
+#include <set>
 
 #include "mvis/ros/conversions.h"
 
@@ -18,6 +20,29 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The bag's topics by message type.
+std::map<std::string, std::string> bagTopics(const rosbag::Bag& bag) {
+  std::map<std::string, std::string> out;
+  rosbag::View all(bag);
+  for (const rosbag::ConnectionInfo* c : all.getConnections()) out[c->topic] = c->datatype;
+  return out;
+}
+
+// The bag's topics of the types a rig reads that `used` does not hold, as
+// "/cam0/image_raw/compressed (sensor_msgs/CompressedImage), ...", or "" if none.
+std::string otherRigLikeTopics(const std::map<std::string, std::string>& topics,
+                               const std::set<std::string>& used) {
+  static const std::set<std::string> kTypes = {"sensor_msgs/Imu", "sensor_msgs/Image",
+                                               "sensor_msgs/CompressedImage",
+                                               "mvis/TagDetectionArray"};
+  std::string out;
+  for (const auto& [topic, type] : topics) {
+    if (!kTypes.count(type) || used.count(topic)) continue;
+    out += (out.empty() ? "" : ", ") + topic + " (" + type + ")";
+  }
+  return out;
 }
 
 }  // namespace
@@ -37,18 +62,52 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   } catch (const std::exception& e) {
     return Status::Error(bag_path + ": cannot open the bag: " + e.what());
   }
-  std::map<std::string, std::size_t> imu_topics, image_topics, detection_topics;
+  const std::map<std::string, std::string> in_bag = bagTopics(bag);
+  // Per camera one input, the first the bag has: images, compressed images (decoded here:
+  // Debian has no compressed_image_transport), tag detections made elsewhere.
+  std::map<std::string, std::size_t> imu_topics, image_topics, compressed_topics, detection_topics;
   std::vector<std::string> topics;
   for (std::size_t i = 0; i < initial.inertial.size(); ++i) {
     imu_topics[initial.inertial[i].rostopic] = i;
     topics.push_back(initial.inertial[i].rostopic);
   }
+  std::vector<std::string> camera_inputs(initial.cameras.size());
   for (std::size_t c = 0; c < initial.cameras.size(); ++c) {
-    image_topics[initial.cameras[c].rostopic] = c;
-    detection_topics[initial.cameras[c].rostopic + "/tag_detections"] = c;
-    topics.push_back(initial.cameras[c].rostopic);
-    topics.push_back(initial.cameras[c].rostopic + "/tag_detections");
+    const std::string& raw = initial.cameras[c].rostopic;
+    const std::string compressed = raw + "/compressed", detections = raw + "/tag_detections";
+    if (in_bag.count(raw) || (!in_bag.count(compressed) && !in_bag.count(detections))) {
+      image_topics[raw] = c;
+      camera_inputs[c] = raw;
+    } else if (in_bag.count(compressed)) {
+      compressed_topics[compressed] = c;
+      camera_inputs[c] = compressed;
+    } else {
+      detection_topics[detections] = c;
+      camera_inputs[c] = detections;
+    }
+    topics.push_back(camera_inputs[c]);
   }
+  std::vector<long> imu_count(initial.inertial.size(), 0), camera_count(initial.cameras.size(), 0);
+  const auto silent = [&]() {
+    std::string out;
+    for (std::size_t i = 0; i < imu_count.size(); ++i) {
+      if (imu_count[i] > 0) continue;
+      out += (out.empty() ? "" : "; ") + initial.inertial[i].name + ": no message on " +
+             initial.inertial[i].rostopic;
+    }
+    for (std::size_t c = 0; c < camera_count.size(); ++c) {
+      if (camera_count[c] > 0) continue;
+      const std::string& raw = initial.cameras[c].rostopic;
+      out += (out.empty() ? "" : "; ") + initial.cameras[c].name + ": no message on " + raw +
+             " (sensor_msgs/Image), " + raw + "/compressed (sensor_msgs/CompressedImage) or " +
+             raw + "/tag_detections (mvis/TagDetectionArray)";
+    }
+    if (out.empty()) return out;
+    const std::string others =
+        otherRigLikeTopics(in_bag, std::set<std::string>(topics.begin(), topics.end()));
+    return out + (others.empty() ? "; the bag has no other topic of those types"
+                                 : "; the bag has " + others);
+  };
 
   OfflineResult result;
   estimator->setUpdateCallback([&result, &estimator](const EstimatorUpdate& u) {
@@ -63,8 +122,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   try {
     rosbag::View view(bag, rosbag::TopicQuery(topics));
     if (view.size() == 0) {
-      return Status::Error(bag_path + ": no message on the rig's topics (" + topics.front() +
-                           ", ...)");
+      return Status::Error(bag_path + ": no message on the rig's topics: " + silent());
     }
     const double begin = view.getBeginTime().toSec(), end = view.getEndTime().toSec();
     std::size_t done = 0;
@@ -79,6 +137,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         const auto msg = m.instantiate<sensor_msgs::Imu>();
         if (!msg) continue;
         ++result.imu_messages;
+        ++imu_count[it->second];
         ImuMeasurement reading;
         std::string why;
         const bool gyro_only = initial.inertial[it->second].type == InertialType::kGyroscope;
@@ -87,30 +146,51 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
           continue;
         }
         estimator->addImu(it->second, reading);
-      } else if (auto ic = image_topics.find(topic); ic != image_topics.end()) {
-        const auto msg = m.instantiate<sensor_msgs::Image>();
-        if (!msg) continue;
-        ++result.image_messages;
+      } else if (image_topics.count(topic) || compressed_topics.count(topic)) {
+        const bool compressed = compressed_topics.count(topic) > 0;
+        const std::size_t camera = compressed ? compressed_topics[topic] : image_topics[topic];
+        // gray may share the raw message's pixels: the message stays alive as long as it.
+        sensor_msgs::ImageConstPtr raw_msg;
         cv::Mat gray;
         std::string why;
-        if (!ros_conversions::toGray(msg, &gray, &why)) {
-          ++result.dropped_messages;
-          continue;
+        TimeNs stamp = 0;
+        if (compressed) {
+          const auto msg = m.instantiate<sensor_msgs::CompressedImage>();
+          if (!msg) continue;
+          const auto t0 = Clock::now();
+          const bool decoded = ros_conversions::toGray(*msg, &gray, &why);
+          result.decode_ms.push_back(msSince(t0));
+          if (!decoded) {
+            ++result.dropped_messages;
+            continue;
+          }
+          stamp = ros_conversions::toTimeNs(msg->header.stamp);
+        } else {
+          raw_msg = m.instantiate<sensor_msgs::Image>();
+          if (!raw_msg) continue;
+          if (!ros_conversions::toGray(raw_msg, &gray, &why)) {
+            ++result.image_messages;
+            ++result.dropped_messages;
+            continue;
+          }
+          stamp = ros_conversions::toTimeNs(raw_msg->header.stamp);
         }
+        ++result.image_messages;
+        ++camera_count[camera];
         const auto t0 = Clock::now();
-        const TimeNs stamp = ros_conversions::toTimeNs(msg->header.stamp);
-        auto tags = frontend->processImage(ic->second, stamp, gray);
+        auto tags = frontend->processImage(camera, stamp, gray);
         result.frontend_ms.push_back(msSince(t0));
         if (!tags.ok()) {
           ++result.dropped_messages;
           continue;
         }
-        frontend->dropBefore(ic->second, stamp - kNsPerSecond);
+        frontend->dropBefore(camera, stamp - kNsPerSecond);
         estimator->addTagFrame(tags.value().frame);
       } else if (auto id = detection_topics.find(topic); id != detection_topics.end()) {
         const auto msg = m.instantiate<mvis::TagDetectionArray>();
         if (!msg) continue;
         ++result.detection_messages;
+        ++camera_count[id->second];
         auto tags = frontend->processDetections(ros_conversions::toTagFrame(*msg, id->second));
         if (!tags.ok()) {
           ++result.dropped_messages;
@@ -127,9 +207,12 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   }
   if (options.progress) options.progress(1.0, result.bag_seconds);
   result.wall_seconds = msSince(start) * 1e-3;
+  const std::string missing = silent();
   if (!estimator->initialized()) {
-    return Status::Error("the estimator never initialized: " + estimator->status());
+    return Status::Error("the estimator never initialized: " + estimator->status() +
+                         (missing.empty() ? "" : " (" + missing + ")"));
   }
+  if (!missing.empty()) result.warnings.push_back(missing);
   estimator->computeCovariance();
   result.calibration = estimator->calibration();
   result.trajectory = estimator->trajectory();

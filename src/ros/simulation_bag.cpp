@@ -18,8 +18,8 @@ namespace {
 
 class BagSink : public SimulationSink {
  public:
-  BagSink(rosbag::Bag* bag, const Rig& rig, SimulationBagSummary* summary)
-      : bag_(bag), rig_(rig), summary_(summary) {}
+  BagSink(rosbag::Bag* bag, const Rig& rig, SimulationBagSummary* summary, bool compressed)
+      : bag_(bag), rig_(rig), summary_(summary), compressed_(compressed) {}
 
   void imu(std::size_t sensor, const ImuSample& sample) override {
     sensor_msgs::Imu msg;
@@ -55,6 +55,14 @@ class BagSink : public SimulationSink {
   }
 
   void image(std::size_t camera, TimeNs stamp_ns, const cv::Mat& gray) override {
+    if (compressed_) {
+      sensor_msgs::CompressedImage msg = ros_conversions::toCompressedPng(gray);
+      msg.header.stamp = ros_conversions::toRosTime(stamp_ns);
+      msg.header.frame_id = rig_.cameras[camera].name;
+      bag_->write(rig_.cameras[camera].rostopic + "/compressed", msg.header.stamp, msg);
+      ++summary_->camera_messages;
+      return;
+    }
     sensor_msgs::Image msg;
     msg.header.stamp = ros_conversions::toRosTime(stamp_ns);
     msg.header.frame_id = rig_.cameras[camera].name;
@@ -75,12 +83,14 @@ class BagSink : public SimulationSink {
   rosbag::Bag* bag_;
   const Rig& rig_;
   SimulationBagSummary* summary_;
+  bool compressed_;
 };
 
 }  // namespace
 
 StatusOr<SimulationBagSummary> writeSimulationBag(const Rig& truth, const SimulationConfig& config,
-                                                  const std::string& output_dir) {
+                                                  const std::string& output_dir,
+                                                  bool compressed_images) {
   namespace fs = std::filesystem;
   const auto start = std::chrono::steady_clock::now();
   const fs::path out(output_dir);
@@ -98,7 +108,7 @@ StatusOr<SimulationBagSummary> writeSimulationBag(const Rig& truth, const Simula
   try {
     if (!ros::Time::isValid()) ros::Time::init();
     rosbag::Bag bag((out / "sim.bag").string(), rosbag::bagmode::Write);
-    BagSink sink(&bag, truth, &summary);
+    BagSink sink(&bag, truth, &summary, compressed_images);
     trajectory = runSimulation(truth, config, &sink);
     bag.close();
   } catch (const std::exception& e) {  // rosbag::BagException and friends

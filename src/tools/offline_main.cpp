@@ -1,4 +1,5 @@
-// mvis_offline --config DIR --bag FILE --output DIR [--truth DIR] [--interpolation imu|report]
+// mvis_offline --config DIR --bag FILE --output DIR [--imu-chain F] [--cam-chain F] [--target F]
+//              [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--huber S] [--robust-loss frame|corner] [--window N]
 //              [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
@@ -29,6 +30,7 @@ namespace {
 int usage(const char* message) {
   std::fprintf(stderr,
                "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
+               "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
                "                    [--window N]\n"
@@ -41,6 +43,9 @@ int usage(const char* message) {
                "                    [--hold SENSOR.QUANTITY]...\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
+               "  --imu-chain F, --cam-chain F, --target F  other names for those files\n"
+               "                   (relative to --config unless absolute), e.g. Kalibr's\n"
+               "                   imu-rig.yaml and camchain-imucam-rig.yaml\n"
                "  --bag FILE       IMU and image (or tag detection) messages\n"
                "  --output DIR     where the calibration and trajectory.tum go\n"
                "  --truth DIR      a simulation's truth/: print errors and the ATE\n"
@@ -86,6 +91,7 @@ double percentile(std::vector<double> v, double q) {
 
 int main(int argc, char** argv) {
   std::string config_dir, bag_path, output_dir, truth_dir, interpolation = "imu";
+  std::string imu_chain, cam_chain, target;
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
   bool estimate_intrinsics = false;
@@ -114,6 +120,12 @@ int main(int argc, char** argv) {
       if (!value(&bag_path)) return usage("--bag needs a file");
     } else if (arg == "--output") {
       if (!value(&output_dir)) return usage("--output needs a directory");
+    } else if (arg == "--imu-chain") {
+      if (!value(&imu_chain)) return usage("--imu-chain needs a file");
+    } else if (arg == "--cam-chain") {
+      if (!value(&cam_chain)) return usage("--cam-chain needs a file");
+    } else if (arg == "--target") {
+      if (!value(&target)) return usage("--target needs a file");
     } else if (arg == "--truth") {
       if (!value(&truth_dir)) return usage("--truth needs a directory");
     } else if (arg == "--pixel-sigma") {
@@ -190,7 +202,12 @@ int main(int argc, char** argv) {
   if (config_dir.empty() || bag_path.empty() || output_dir.empty()) {
     return usage("--config, --bag and --output are required");
   }
-  const auto initial = mvis::loadRig(config_dir);
+  std::vector<std::string> warnings;
+  const auto initial =
+      imu_chain.empty() && cam_chain.empty() && target.empty()
+          ? mvis::loadRig(config_dir, &warnings)
+          : mvis::loadRig(mvis::RigFiles::in(config_dir, imu_chain, cam_chain, target), &warnings);
+  for (const auto& w : warnings) std::fprintf(stderr, "mvis_offline: warning: %s\n", w.c_str());
   if (!initial.ok()) {
     std::fprintf(stderr, "mvis_offline: %s\n", initial.status().message().c_str());
     return 1;
@@ -245,6 +262,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   const mvis::OfflineResult& r = result.value();
+  for (const auto& w : r.warnings) std::fprintf(stderr, "mvis_offline: warning: %s\n", w.c_str());
 
   const mvis::Status saved =
       mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
@@ -272,6 +290,10 @@ int main(int argc, char** argv) {
   if (!r.frontend_ms.empty()) {
     std::printf("; tag detection median %.1f ms, p99 %.1f ms", percentile(r.frontend_ms, 0.5),
                 percentile(r.frontend_ms, 0.99));
+  }
+  if (!r.decode_ms.empty()) {
+    std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(r.decode_ms, 0.5),
+                percentile(r.decode_ms, 0.99));
   }
   std::printf(
       "\n\n%s",

@@ -1,4 +1,4 @@
-// mvis_simulate --rig DIR [--sim FILE] --output DIR [--detections]
+// mvis_simulate --rig DIR [--sim FILE] --output DIR [--detections | --compressed]
 // Simulates the rig described in DIR (the truth: kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml,
 // aprilgrid.yaml) as the simulation yaml says (default DIR/sim.yaml), and writes OUTPUT/sim.bag,
 // OUTPUT/truth/ and OUTPUT/config/ (the perturbed initial guess). See
@@ -14,12 +14,15 @@ namespace {
 
 int usage(const char* message) {
   std::fprintf(stderr,
-               "%s\nusage: mvis_simulate --rig DIR [--sim FILE] --output DIR [--detections]\n"
+               "%s\nusage: mvis_simulate --rig DIR [--sim FILE] --output DIR\n"
+               "                     [--detections | --compressed]\n"
                "  --rig DIR       the true rig (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml,\n"
                "                  aprilgrid.yaml)\n"
                "  --sim FILE      simulation yaml (default DIR/sim.yaml)\n"
                "  --output DIR    where sim.bag, truth/ and config/ go\n"
-               "  --detections    tag detections instead of rendered images (fast)\n",
+               "  --detections    tag detections instead of rendered images (fast)\n"
+               "  --compressed    the images PNG-compressed (sensor_msgs/CompressedImage on\n"
+               "                  <camera topic>/compressed), as rigs usually record them\n",
                message);
   return 2;
 }
@@ -28,7 +31,7 @@ int usage(const char* message) {
 
 int main(int argc, char** argv) {
   std::string rig_dir, sim_file, output_dir;
-  bool detections = false;
+  bool detections = false, compressed = false;
   for (int i = 1; i < argc; ++i) {
     const auto value = [&](std::string* out) {
       if (i + 1 >= argc) return false;
@@ -43,11 +46,14 @@ int main(int argc, char** argv) {
       if (!value(&output_dir)) return usage("--output needs a directory");
     } else if (std::strcmp(argv[i], "--detections") == 0) {
       detections = true;
+    } else if (std::strcmp(argv[i], "--compressed") == 0) {
+      compressed = true;
     } else {
       return usage((std::string("unknown argument ") + argv[i]).c_str());
     }
   }
   if (rig_dir.empty() || output_dir.empty()) return usage("--rig and --output are required");
+  if (detections && compressed) return usage("--detections and --compressed exclude each other");
   if (sim_file.empty()) sim_file = rig_dir + "/sim.yaml";
 
   const auto rig = mvis::loadRig(rig_dir);
@@ -61,7 +67,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (detections) config.value().camera_output = mvis::CameraOutput::kDetections;
-  const auto summary = mvis::writeSimulationBag(rig.value(), config.value(), output_dir);
+  const auto summary =
+      mvis::writeSimulationBag(rig.value(), config.value(), output_dir, compressed);
   if (!summary.ok()) {
     std::fprintf(stderr, "mvis_simulate: %s\n", summary.status().message().c_str());
     return 1;

@@ -5,6 +5,7 @@
 #include <mvis/Calibration.h>
 #include <mvis/TagDetectionArray.h>
 #include <ros/time.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 
@@ -37,6 +38,15 @@ bool toImuMeasurement(const sensor_msgs::Imu& msg, bool gyroscope_only, ImuMeasu
 // reason in `why`, for data shorter than step x height (cv_bridge would read past its end) or an
 // encoding cv_bridge cannot turn into mono8.
 bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
+
+// A sensor_msgs/CompressedImage (JPEG or PNG, as compressed_image_transport or a driver writes
+// it; mono or colour, 8 or 16 bit) decoded by OpenCV to 8-bit gray: colour with OpenCV's
+// weights, 16 bit scaled by 255/65535 (full range to full range). False, with the reason in
+// `why`, for data OpenCV cannot decode.
+bool toGray(const sensor_msgs::CompressedImage& msg, cv::Mat* gray, std::string* why);
+// The same image PNG-compressed (lossless: toGray gives the same pixels back), as
+// compressed_image_transport writes it ("mono8; png compressed").
+sensor_msgs::CompressedImage toCompressedPng(const cv::Mat& gray);
 
 // The rig's calibration as a message. Sensors without std get NaN standard deviations
 // ("not yet known"). Frame ids are frame_prefix + sensor name.

@@ -7,6 +7,7 @@
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <std_srvs/Trigger.h>
@@ -53,8 +54,14 @@ class MvisNodelet : public nodelet::Nodelet {
 
   void onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg);
   void onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg);
+  void onCompressed(std::size_t camera, const sensor_msgs::CompressedImageConstPtr& msg);
+  // An image of either kind, as 8-bit gray, through the front end and into the estimator.
+  void processGray(std::size_t camera, const std_msgs::Header& header, const cv::Mat& gray);
   void onTagDetections(std::size_t camera, const mvis::TagDetectionArrayConstPtr& msg);
+  // mvis_nodelet_outputs.cpp: diagnostics, the board's markers, unobservable directions in words
+  // ('; '-separated).
   void publishDiagnostics();
+  static std::string joinedText(const std::vector<UnobservableCalibration>& unobservable);
   // Called by the estimator (under estimator_mutex_) after each solve.
   void onUpdate(const EstimatorUpdate& update);
   // Called by the estimator (under estimator_mutex_) with every base-IMU reading after the

@@ -9,16 +9,21 @@
 namespace mvis {
 
 struct NodeletOptions {
-  std::string config_dir;              // directory with the rig's yaml files (required)
-  std::string world_frame = "odom";    // TF/odometry parent frame (REP-105)
-  std::string frame_prefix;            // prepended to sensor names to form their TF frames
-  std::string camera_input = "image";  // "image" or "tag_detections"
-  double diagnostics_period_s = 1.0;   // [s] between diagnostics messages
-  double sensor_timeout_s = 1.0;       // [s] silence after which a sensor counts as stopped
-  double tag_decimate = 2.0;           // quad search at 1/decimate resolution (>= 1)
-  bool tag_refine_corners = true;      // mvis's edge-based sub-pixel corner refinement
-  int tag_max_hamming = 1;             // bits the tag decoder may correct (0..2)
-  int tag_threads = 1;                 // libapriltag threads per camera
+  std::string config_dir;  // directory with the rig's yaml files (required)
+  // Other names for the three files (relative to config_dir unless absolute; empty: the
+  // defaults kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, aprilgrid.yaml).
+  std::string imu_chain, cam_chain, target;
+  std::string world_frame = "odom";  // TF/odometry parent frame (REP-105)
+  std::string frame_prefix;          // prepended to sensor names to form their TF frames
+  // "image" (sensor_msgs/Image on the camera's rostopic), "compressed"
+  // (sensor_msgs/CompressedImage on <rostopic>/compressed, decoded by mvis) or "tag_detections"
+  std::string camera_input = "image";
+  double diagnostics_period_s = 1.0;  // [s] between diagnostics messages
+  double sensor_timeout_s = 1.0;      // [s] silence after which a sensor counts as stopped
+  double tag_decimate = 2.0;          // quad search at 1/decimate resolution (>= 1)
+  bool tag_refine_corners = true;     // mvis's edge-based sub-pixel corner refinement
+  int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
+  int tag_threads = 1;                // libapriltag threads per camera
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 4;                              // states in the sliding window
   double pixel_sigma = 1.0;                         // [px] corner noise

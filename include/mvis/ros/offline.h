@@ -2,9 +2,11 @@
 // scripts/demo, scripts/bench).
 //
 // Every message of the rig's topics is read in bag order: sensor_msgs/Imu of each inertial
-// sensor, sensor_msgs/Image of each camera (through the tag front end) or, when a camera has
-// none, mvis/TagDetectionArray on `<camera topic>/tag_detections`. Bad messages are dropped and
-// counted, as in the nodelet.
+// sensor, and per camera the first of these the bag has: sensor_msgs/Image on its topic or
+// sensor_msgs/CompressedImage (JPEG, PNG) on `<camera topic>/compressed`, both through the tag
+// front end, or mvis/TagDetectionArray on `<camera topic>/tag_detections`. Bad messages are
+// dropped and counted, as in the nodelet. A sensor without any message is named, with the bag's
+// topics of the rig's message types that it does not use (a wrong topic is a one-line fix).
 #pragma once
 
 #include <functional>
@@ -35,9 +37,11 @@ struct OfflineResult {
   std::vector<int> solve_iterations;       // per update that solved
   EstimateLog log;                         // calibration after every solve, pose covariances
   std::vector<double> frontend_ms;         // per image (detection)
+  std::vector<double> decode_ms;           // per compressed image (decoding)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
-  std::string status;  // the estimator's last word
+  std::string status;                 // the estimator's last word
+  std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
 };
 
 StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_path,

@@ -1,7 +1,9 @@
 // Writing a simulated run (mvis_simulate) as a ROS bag plus truth and initial-guess files:
 //   OUTPUT/sim.bag     sensor_msgs/Imu per inertial sensor on its rostopic; per camera
-//                      sensor_msgs/Image (mono8) on its rostopic, or mvis/TagDetectionArray on
-//                      <rostopic>/tag_detections; every stamp in the sensor's own clock
+//                      sensor_msgs/Image (mono8) on its rostopic (with `compressed_images`
+//                      sensor_msgs/CompressedImage, PNG, on <rostopic>/compressed instead), or
+//                      mvis/TagDetectionArray on <rostopic>/tag_detections; every stamp in the
+//                      sensor's own clock
 //   OUTPUT/truth/      the true kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, aprilgrid.yaml,
 //                      and trajectory.tum (imu0 in the world at its sample times)
 //   OUTPUT/config/     the same files perturbed: a user's rough initial guess
@@ -23,6 +25,7 @@ struct SimulationBagSummary {
 };
 
 StatusOr<SimulationBagSummary> writeSimulationBag(const Rig& truth, const SimulationConfig& config,
-                                                  const std::string& output_dir);
+                                                  const std::string& output_dir,
+                                                  bool compressed_images = false);
 
 }  // namespace mvis

@@ -1,0 +1,174 @@
+// The nodelet's diagnostics and the board's markers (mvis_nodelet.h).
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cstdio>
+
+#include "mvis/ros/mvis_nodelet.h"
+
+namespace mvis {
+namespace {
+
+diagnostic_msgs::DiagnosticStatus makeStatus(std::uint8_t level, const std::string& name,
+                                             const std::string& message) {
+  diagnostic_msgs::DiagnosticStatus status;
+  status.level = level;
+  status.name = "mvis: " + name;
+  status.hardware_id = "mvis";
+  status.message = message;
+  return status;
+}
+
+}  // namespace
+
+// What an update says the motion leaves unobservable, in words, '; '-separated.
+std::string MvisNodelet::joinedText(const std::vector<UnobservableCalibration>& unobservable) {
+  std::string out;
+  for (const auto& d : unobservable) out += (out.empty() ? "" : "; ") + d.text();
+  return out;
+}
+
+void MvisNodelet::publishDiagnostics() {
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = ros::Time::now();
+  if (!config_error_.empty()) {
+    array.status.push_back(
+        makeStatus(diagnostic_msgs::DiagnosticStatus::ERROR, "configuration", config_error_));
+    out_.diagnostics.publish(array);
+    return;
+  }
+  array.status.push_back(makeStatus(diagnostic_msgs::DiagnosticStatus::OK, "configuration",
+                                    "loaded " + options_.config_dir));
+  if (estimator_) {
+    std::lock_guard<std::mutex> lock(estimator_mutex_);
+    const bool running = estimator_->initialized();
+    auto status = makeStatus(
+        running ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
+        "estimator", estimator_->status());
+    auto add = [&status](const std::string& key, const std::string& value) {
+      diagnostic_msgs::KeyValue kv;
+      kv.key = key;
+      kv.value = value;
+      status.values.push_back(kv);
+    };
+    if (have_update_) {
+      add("solve_ms", std::to_string(last_update_.solve.total_s * 1e3));
+      add("iterations", std::to_string(last_update_.solve.iterations));
+      add("window_states", std::to_string(last_update_.solve.states));
+      add("window_frames", std::to_string(last_update_.solve.frames));
+      add("window_corners", std::to_string(last_update_.solve.corners));
+    }
+    const EstimatorCounters& c = estimator_->counters();
+    add("solves", std::to_string(c.solves));
+    add("resets", std::to_string(c.resets));
+    add("frames_dropped", std::to_string(c.frames_too_old + c.frames_too_close +
+                                         c.frames_out_of_order + c.frames_in_imu_gap));
+    add("frames_too_few_tags", std::to_string(c.frames_too_few_tags));
+    add("imu_dropped", std::to_string(c.imu_out_of_order + c.imu_non_finite));
+    add("imu_gaps", std::to_string(c.imu_gaps));
+    add("clock_corrections", std::to_string(c.clock_corrections));
+    if (rig_.inertial.size() > 1) {
+      add("aux_dropped", std::to_string(c.aux_dropped));
+      add("aux_dropouts", std::to_string(c.aux_dropouts));
+      add("aux_starts", std::to_string(c.aux_starts));
+    }
+    if (have_update_) {
+      const std::string unobservable = joinedText(last_update_.unobservable);
+      add("unobservable", unobservable.empty() ? "none" : unobservable);
+      if (!unobservable.empty()) status.level = diagnostic_msgs::DiagnosticStatus::WARN;
+    }
+    if (!estimator_error_.empty()) add("last_problem", estimator_error_);
+    array.status.push_back(status);
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (SensorTraffic& t : traffic_) {
+    const double elapsed = (now - t.last_report).toSec();
+    const double rate = elapsed > 0.0 ? (t.received - t.received_at_last_report) / elapsed : 0.0;
+    t.received_at_last_report = t.received;
+    t.last_report = now;
+    char text[160];
+    std::uint8_t level = diagnostic_msgs::DiagnosticStatus::OK;
+    if (t.received == 0 && t.rejected == 0) {
+      level = diagnostic_msgs::DiagnosticStatus::WARN;
+      std::snprintf(text, sizeof(text), "no data yet on %s", t.topic.c_str());
+    } else if ((now - t.last_arrival).toSec() > options_.sensor_timeout_s) {
+      level = diagnostic_msgs::DiagnosticStatus::WARN;
+      std::snprintf(text, sizeof(text), "stopped: nothing on %s for %.1f s", t.topic.c_str(),
+                    (now - t.last_arrival).toSec());
+    } else {
+      std::snprintf(text, sizeof(text), "%.1f Hz on %s", rate, t.topic.c_str());
+    }
+    auto status = makeStatus(level, t.name, text);
+    diagnostic_msgs::KeyValue kv;
+    kv.key = "received";
+    kv.value = std::to_string(t.received);
+    status.values.push_back(kv);
+    kv.key = "rejected";
+    kv.value = std::to_string(t.rejected);
+    status.values.push_back(kv);
+    if (&t - traffic_.data() >= static_cast<std::ptrdiff_t>(rig_.inertial.size())) {
+      kv.key = "tags_in_last_frame";
+      kv.value = std::to_string(t.tags_in_last_frame);
+      status.values.push_back(kv);
+      kv.key = "tags_rejected";
+      kv.value = std::to_string(t.tags_rejected);
+      status.values.push_back(kv);
+    }
+    array.status.push_back(status);
+  }
+  out_.diagnostics.publish(array);
+}
+
+void MvisNodelet::publishTags() {
+  std::map<int, std::array<Eigen::Vector3d, 4>> tags;
+  if (rig_.target) {
+    for (int id = 0; id < rig_.target->numTags(); ++id) {
+      for (int k = 0; k < 4; ++k) tags[id][k] = rig_.target->corner(id, k);
+    }
+  } else if (estimator_) {
+    tags = estimator_->landmarks();
+  }
+  if (tags.empty()) return;
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker squares;
+  squares.header.frame_id = options_.frame_prefix + "board";
+  squares.header.stamp = ros::Time::now();
+  squares.ns = "tags";
+  squares.id = 0;
+  squares.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  squares.action = visualization_msgs::Marker::ADD;
+  squares.pose.orientation.w = 1.0;
+  squares.scale.x = squares.scale.y = squares.scale.z = 1.0;
+  squares.color.r = squares.color.g = squares.color.b = 0.1f;
+  squares.color.a = 1.0f;
+  auto point = [](const Eigen::Vector3d& p) {
+    geometry_msgs::Point q;
+    q.x = p.x();
+    q.y = p.y();
+    q.z = p.z();
+    return q;
+  };
+  for (const auto& [id, c] : tags) {
+    for (int k : {0, 1, 2, 0, 2, 3}) squares.points.push_back(point(c[k]));
+    visualization_msgs::Marker label;
+    label.header = squares.header;
+    label.ns = "tag_ids";
+    label.id = id;
+    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    label.action = visualization_msgs::Marker::ADD;
+    label.pose.position = point(0.25 * (c[0] + c[1] + c[2] + c[3]));
+    label.pose.position.z += 0.01;
+    label.pose.orientation.w = 1.0;
+    label.scale.z = 0.5 * (c[1] - c[0]).norm();
+    label.color.r = 1.0f;
+    label.color.g = 0.6f;
+    label.color.a = 1.0f;
+    label.text = std::to_string(id);
+    array.markers.push_back(label);
+  }
+  array.markers.push_back(squares);
+  out_.tags.publish(array);
+}
+
+}  // namespace mvis

@@ -1,0 +1,76 @@
+// What bags hold for the cameras: compressed images (as rigs record them) give the same run as
+// raw images, and a bag without the configured topics says which topics it does have.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "mvis/rig/rig_io.h"
+#include "mvis/ros/offline.h"
+#include "mvis/ros/simulation_bag.h"
+
+namespace mvis {
+namespace {
+
+namespace fs = std::filesystem;
+
+// 10 s of the small rig (one 376x240 camera at 20 Hz) rendered, raw or PNG-compressed; the
+// same seed gives the same images either way.
+fs::path simulate(const std::string& name, bool compressed) {
+  const std::string rig_dir = std::string(MVIS_SOURCE_DIR) + "/config/sim_small_rig";
+  const Rig truth = loadRig(rig_dir).value();
+  SimulationConfig config = loadSimulationConfig(rig_dir + "/sim.yaml", 1).value();
+  config.duration_s = 10.0;
+  config.threads = 1;
+  const fs::path dir = fs::temp_directory_path() / ("mvis_offline_inputs_" + name);
+  fs::remove_all(dir);
+  const auto summary = writeSimulationBag(truth, config, dir.string(), compressed);
+  EXPECT_TRUE(summary.ok()) << summary.status().message();
+  return dir;
+}
+
+TEST(OfflineInputs, CompressedImagesGiveTheRunRawImagesGive) {
+  const fs::path raw = simulate("raw", false), png = simulate("png", true);
+  const Rig guess = loadRig((raw / "config").string()).value();
+  OfflineOptions options;
+  options.estimator.max_solve_time_s = 1e3;  // no time budget: the same answer whatever the load
+  options.estimator.init_solve_time_s = 1e3;
+  const auto a = runOffline(guess, (raw / "sim.bag").string(), options);
+  const auto b = runOffline(guess, (png / "sim.bag").string(), options);
+  ASSERT_TRUE(a.ok()) << a.status().message();
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  EXPECT_EQ(a.value().image_messages, 201);
+  EXPECT_EQ(b.value().image_messages, 201);
+  EXPECT_TRUE(a.value().decode_ms.empty());
+  EXPECT_EQ(b.value().decode_ms.size(), 201u);
+  EXPECT_EQ(a.value().dropped_messages, 0);
+  EXPECT_EQ(b.value().dropped_messages, 0);
+  // PNG is lossless: the same pixels, the same detections, the same estimate to the last bit.
+  const Camera &ca = a.value().calibration.cameras[0], &cb = b.value().calibration.cameras[0];
+  EXPECT_EQ(ca.T_cam_imu.matrix(), cb.T_cam_imu.matrix());
+  EXPECT_EQ(ca.timeshift_cam_imu, cb.timeshift_cam_imu);
+  ASSERT_EQ(a.value().trajectory.size(), b.value().trajectory.size());
+  EXPECT_EQ(a.value().trajectory.back().T_G_I.matrix(), b.value().trajectory.back().T_G_I.matrix());
+  EXPECT_TRUE(b.value().warnings.empty());
+  fs::remove_all(raw);
+  fs::remove_all(png);
+}
+
+TEST(OfflineInputs, AWrongTopicNamesTheTopicsTheBagHas) {
+  const fs::path png = simulate("wrong_topic", true);
+  Rig guess = loadRig((png / "config").string()).value();
+  guess.cameras[0].rostopic = "/camera/image_raw";
+  OfflineOptions options;
+  const auto r = runOffline(guess, (png / "sim.bag").string(), options);
+  ASSERT_FALSE(r.ok());
+  const std::string& message = r.status().message();
+  EXPECT_NE(message.find("cam0: no message on /camera/image_raw (sensor_msgs/Image), "
+                         "/camera/image_raw/compressed (sensor_msgs/CompressedImage) or "
+                         "/camera/image_raw/tag_detections (mvis/TagDetectionArray); the bag has "
+                         "/cam0/image_raw/compressed (sensor_msgs/CompressedImage)"),
+            std::string::npos)
+      << message;
+  fs::remove_all(png);
+}
+
+}  // namespace
+}  // namespace mvis
