@@ -35,11 +35,16 @@ mvis::InertialCalibration toMsg(const InertialSensor& s, const std::string& fram
   fill(m.Tw, s.intrinsics.Tw);
   fill(m.Ta, s.intrinsics.Ta);
   fill(m.Tg, s.intrinsics.Tg);
-  const Eigen::Quaterniond q_acc(s.intrinsics.R_IMUtoACC);
+  m.model = toString(s.model);
+  const Eigen::Quaterniond q_acc(s.intrinsics.R_IMUtoACC), q_gyro(s.intrinsics.R_IMUtoGYRO);
   m.R_IMUtoACC.x = q_acc.x();
   m.R_IMUtoACC.y = q_acc.y();
   m.R_IMUtoACC.z = q_acc.z();
   m.R_IMUtoACC.w = q_acc.w();
+  m.R_IMUtoGYRO.x = q_gyro.x();
+  m.R_IMUtoGYRO.y = q_gyro.y();
+  m.R_IMUtoGYRO.z = q_gyro.z();
+  m.R_IMUtoGYRO.w = q_gyro.w();
   if (s.std) {
     fill(m.rotation_std, s.std->rotation);
     fill(m.translation_std, s.std->translation);
@@ -48,6 +53,7 @@ mvis::InertialCalibration toMsg(const InertialSensor& s, const std::string& fram
     fill(m.Ta_std, s.std->Ta);
     fill(m.Tg_std, s.std->Tg);
     fill(m.R_IMUtoACC_std, s.std->R_IMUtoACC);
+    fill(m.R_IMUtoGYRO_std, s.std->R_IMUtoGYRO);
   } else {
     fillUnknown(m.rotation_std);
     fillUnknown(m.translation_std);
@@ -56,6 +62,7 @@ mvis::InertialCalibration toMsg(const InertialSensor& s, const std::string& fram
     fillUnknown(m.Ta_std);
     fillUnknown(m.Tg_std);
     fillUnknown(m.R_IMUtoACC_std);
+    fillUnknown(m.R_IMUtoGYRO_std);
   }
   return m;
 }

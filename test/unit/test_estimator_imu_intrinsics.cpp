@@ -28,26 +28,51 @@ void withIntrinsics(Rig* rig) {
   }
 }
 
+// The same in the kalibr model (OpenVINS's and Kalibr's): Tw, Ta lower triangular, the rotation
+// on the gyroscope (R_IMUtoGYRO) instead of the accelerometer.
+void withKalibrIntrinsics(Rig* rig) {
+  withIntrinsics(rig);
+  for (auto& s : rig->inertial) {
+    s.model = ImuModel::kKalibr;
+    s.intrinsics.Tw.transposeInPlace();
+    s.intrinsics.Ta.transposeInPlace();
+    s.intrinsics.R_IMUtoGYRO = s.intrinsics.R_IMUtoACC;
+    s.intrinsics.R_IMUtoACC.setIdentity();
+  }
+}
+
+// The rotation the model estimates.
+const Eigen::Matrix3d& modelRotation(const InertialSensor& s) {
+  return s.model == ImuModel::kKalibr ? s.intrinsics.R_IMUtoGYRO : s.intrinsics.R_IMUtoACC;
+}
+
 // The guess: the truth's intrinsics perturbed as in Table 4 times `scale` (Dw, Da 3e-3 per
-// element, Tg 1e-3, R_IMUtoACC 3e-3 rad per axis).
+// element, Tg 1e-3, R_IMUtoACC (kalibr: R_IMUtoGYRO) 3e-3 rad per axis).
 void perturbIntrinsics(Rig* rig, std::uint64_t seed, double scale) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
   for (auto& s : rig->inertial) {
-    Eigen::Matrix3d Dw = s.intrinsics.Tw.inverse(), Da = s.intrinsics.Ta.inverse();
+    // kalibr's lower-triangular matrices as the transposes of upper-triangular ones.
+    const bool kalibr = s.model == ImuModel::kKalibr;
+    const auto upper = [&](const Eigen::Matrix3d& T) {
+      return Eigen::Matrix3d(kalibr ? T.transpose() : T);
+    };
+    Eigen::Matrix3d Dw = upper(s.intrinsics.Tw).inverse(), Da = upper(s.intrinsics.Ta).inverse();
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r <= c; ++r) {
         Dw(r, c) += scale * 3e-3 * n(rng);
         Da(r, c) += scale * 3e-3 * n(rng);
       }
     }
-    s.intrinsics.Tw = Dw.inverse();
-    s.intrinsics.Tw.triangularView<Eigen::StrictlyLower>().setZero();
+    Eigen::Matrix3d Tw = Dw.inverse(), Ta = Da.inverse();
+    Tw.triangularView<Eigen::StrictlyLower>().setZero();
+    Ta.triangularView<Eigen::StrictlyLower>().setZero();
+    s.intrinsics.Tw = upper(Tw);
     if (s.type == InertialType::kGyroscope) continue;
-    s.intrinsics.Ta = Da.inverse();
-    s.intrinsics.Ta.triangularView<Eigen::StrictlyLower>().setZero();
+    s.intrinsics.Ta = upper(Ta);
     for (int k = 0; k < 9; ++k) s.intrinsics.Tg(k / 3, k % 3) += scale * 1e-3 * n(rng);
-    s.intrinsics.R_IMUtoACC *= lie::expSO3(scale * 3e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    (kalibr ? s.intrinsics.R_IMUtoGYRO : s.intrinsics.R_IMUtoACC) *=
+        lie::expSO3(scale * 3e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
   }
 }
 
@@ -65,7 +90,7 @@ IntrinsicsErrors intrinsicsErrors(const InertialSensor& truth, const InertialSen
   e.D = (x.Tw.inverse() - t.Tw.inverse()).cwiseAbs().maxCoeff();
   if (!gyro) e.D = std::max(e.D, (x.Ta.inverse() - t.Ta.inverse()).cwiseAbs().maxCoeff());
   e.Tg = (x.Tg - t.Tg).cwiseAbs().maxCoeff();
-  const Eigen::Vector3d dtheta = lie::logSO3(t.R_IMUtoACC.transpose() * x.R_IMUtoACC);
+  const Eigen::Vector3d dtheta = lie::logSO3(modelRotation(truth).transpose() * modelRotation(est));
   e.rotation = dtheta.norm() * 180.0 / M_PI;
   if (!est.std) return e;
   const auto ratio = [](const Eigen::MatrixXd& err, const Eigen::MatrixXd& sd) {
@@ -78,7 +103,8 @@ IntrinsicsErrors intrinsicsErrors(const InertialSensor& truth, const InertialSen
   e.sigma = ratio(x.Tw - t.Tw, est.std->Tw);
   if (!gyro) {
     e.sigma = std::max({e.sigma, ratio(x.Ta - t.Ta, est.std->Ta), ratio(x.Tg - t.Tg, est.std->Tg),
-                        ratio(dtheta, est.std->R_IMUtoACC)});
+                        ratio(dtheta, truth.model == ImuModel::kKalibr ? est.std->R_IMUtoGYRO
+                                                                       : est.std->R_IMUtoACC)});
   }
   return e;
 }
@@ -103,7 +129,7 @@ std::vector<IntrinsicsErrors> allErrors(const SimRun& run, const Rig& estimate, 
     const IntrinsicsErrors g = intrinsicsErrors(run.truth.inertial[i], run.guess.inertial[i]);
     const IntrinsicsErrors e = intrinsicsErrors(run.truth.inertial[i], estimate.inertial[i]);
     std::printf(
-        "%s %s: Dw/Da %.5f (from %.5f), Tg %.5f (from %.5f), R_IMUtoACC %.4f deg "
+        "%s %s: Dw/Da %.5f (from %.5f), Tg %.5f (from %.5f), rotation %.4f deg "
         "(from %.4f), largest error/sigma %.2f\n",
         what, run.truth.inertial[i].name.c_str(), e.D, g.D, e.Tg, g.Tg, e.rotation, g.rotation,
         e.sigma);
@@ -143,6 +169,53 @@ TEST(Estimator, CalibratesImuIntrinsicsByReintegration) {
     EXPECT_LT(ce.time_offset_ms, 0.1) << run.truth.cameras[c].name;
     EXPECT_LT(ce.rotation_sigma_ratio.maxCoeff(), 3.5) << run.truth.cameras[c].name;
     EXPECT_LT(ce.translation_sigma_ratio.maxCoeff(), 3.5) << run.truth.cameras[c].name;
+  }
+}
+
+// The same in the kalibr model (OpenVINS's default, Kalibr's scale-misalignment), estimated in
+// its own parametrization: lower-triangular Dw, Da and the gyroscope's rotation.
+TEST(Estimator, CalibratesKalibrModelImuIntrinsics) {
+  SimRun run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withKalibrIntrinsics);
+  perturbIntrinsics(&run.guess, 7, 1.0);
+  const auto estimator =
+      runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
+  const auto e = allErrors(run, estimate, "kalibr model");
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    const std::string& name = run.truth.inertial[i].name;
+    EXPECT_EQ(estimate.inertial[i].model, ImuModel::kKalibr) << name;
+    EXPECT_EQ(estimate.inertial[i].intrinsics.Tw(0, 1), 0.0) << name;  // lower triangular
+    // The bounds of the rpng case above.
+    EXPECT_LT(e[i].D, 2.7e-3) << name;
+    EXPECT_LT(e[i].Tg, 2.5e-4) << name;
+    EXPECT_LT(e[i].rotation, 0.1) << name;
+    EXPECT_LT(e[i].sigma, 3.5) << name;
+  }
+  // {I} is the accelerometer's frame in this model: the cameras' rotations against it share the
+  // uncertainty of the gyroscope's rotation against the accelerometer, which the motion tells
+  // less well than the cameras' against the gyroscope. Measured (seed 7, 30 s): every camera
+  // 0.080 deg off at 3.1 sigma (with every IMU's intrinsics free the cameras' rotations are
+  // slightly overconfident, as in the rpng case: README's known issues), imu0's R_IMUtoGYRO
+  // 0.076 deg; the cameras' rotations relative to cam0 within 0.002 deg. Bounds: 3.5 sigma (the
+  // largest of three axes' 99% quantile), 0.15 deg, relative 0.02 deg.
+  const Eigen::Matrix3d R_0 = estimate.cameras[0].T_cam_imu.rotation(),
+                        R_0_true = run.truth.cameras[0].T_cam_imu.rotation();
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    const std::string& name = run.truth.cameras[c].name;
+    const CameraErrors ce = errors(run.truth.cameras[c], estimate.cameras[c]);
+    EXPECT_LT(ce.rotation_deg, 0.15) << name;
+    EXPECT_LT(ce.rotation_sigma_ratio.maxCoeff(), 3.5) << name;
+    EXPECT_LT(ce.translation_mm, 2.0) << name;
+    EXPECT_LT(ce.time_offset_ms, 0.1) << name;
+    const Eigen::Matrix3d relative = estimate.cameras[c].T_cam_imu.rotation() * R_0.transpose();
+    const Eigen::Matrix3d relative_true =
+        run.truth.cameras[c].T_cam_imu.rotation() * R_0_true.transpose();
+    const double relative_deg =
+        lie::logSO3(relative_true.transpose() * relative).norm() * 180.0 / M_PI;
+    std::printf("kalibr model %s: rotation %.4f deg (%.2f sigma), relative to cam0 %.4f deg\n",
+                name.c_str(), ce.rotation_deg, ce.rotation_sigma_ratio.maxCoeff(), relative_deg);
+    EXPECT_LT(relative_deg, 0.02) << name;
   }
 }
 

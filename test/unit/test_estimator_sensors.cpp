@@ -273,12 +273,6 @@ TEST(Estimator, UsesTheConfiguredKalibrModelIntrinsics) {
     EXPECT_LT(e.time_offset_ms, 0.1) << run.truth.cameras[c].name;
   }
   EXPECT_EQ(estimate.inertial[0].model, ImuModel::kKalibr);
-  // Estimating them in the kalibr parametrization is not built yet: refused, naming the sensor.
-  options.estimate_imu_intrinsics = true;
-  const auto refused = Estimator::create(run.guess, options);
-  ASSERT_FALSE(refused.ok());
-  EXPECT_EQ(refused.status().message().rfind("imu0: model kalibr: ", 0), 0u)
-      << refused.status().message();
 }
 
 // Per-sensor holds: a held quantity keeps its configured value (std 0), the rest of its class is

@@ -1,7 +1,8 @@
 // Re-integration of raw readings with IMU intrinsics (imu_reintegration.h): the model's
 // conventions against the simulator's (readings made with Table 4 intrinsics integrate back to
 // the true motion only with them), agreement with ImuPreintegration at identity intrinsics, the
-// exact Jacobian against central differences, and the block's round trip to rpng matrices.
+// exact Jacobian against central differences, and the block's round trip to rpng matrices; the
+// same for the kalibr model's parametrization.
 #include <gtest/gtest.h>
 
 #include "mvis/common/lie.h"
@@ -19,6 +20,28 @@ using test::intrinsicsBlock;
 using test::tableFourIntrinsics;
 
 constexpr double kTi = 3.0, kTj = 3.1;
+
+// Table 4's sizes in the kalibr model: Tw, Ta lower triangular, the gyroscope turned by
+// R_IMUtoGYRO, the accelerometer defining the frame.
+ImuIntrinsics tableFourKalibr() {
+  const ImuIntrinsics rpng = tableFourIntrinsics();
+  ImuIntrinsics in;
+  in.Tw = rpng.Tw.transpose();
+  in.Ta = rpng.Ta.transpose();
+  in.Tg = rpng.Tg;
+  in.R_IMUtoGYRO = rpng.R_IMUtoACC;
+  return in;
+}
+
+// The kalibr block of `in` relative to R0 = I (its rotation entries generic) and its frame.
+std::vector<double> kalibrBlock(const ImuIntrinsics& in, ImuIntrinsicsFrame* frame) {
+  std::vector<double> b(kImuIntrinsicsSize);
+  intrinsicsToBlock(in, b.data(), true);
+  const Eigen::Vector3d theta = lie::logSO3(in.R_IMUtoGYRO.transpose());
+  for (int k = 0; k < 3; ++k) b[ImuIntrinsicsLayout::kAccRotation + k] = theta[k];
+  frame->kalibr = true;
+  return b;
+}
 
 std::vector<ImuMeasurement> readings(const InertialSensor& sensor) {
   return test::noiseFreeReadings(sensor, handheld(), kTi, kTj);
@@ -61,6 +84,27 @@ TEST(ImuReintegration, UndoesTheSimulatorsIntrinsics) {
   EXPECT_GT(without.velocity, 50.0 * with.velocity);
 }
 
+TEST(ImuReintegration, UndoesTheSimulatorsKalibrIntrinsics) {
+  InertialSensor sensor = idealImu(500.0);
+  sensor.model = ImuModel::kKalibr;
+  sensor.intrinsics = tableFourKalibr();
+  const auto m = readings(sensor);
+  ImuIntrinsicsFrame frame;  // R0 = I
+  const std::vector<double> block = kalibrBlock(sensor.intrinsics, &frame);
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  const PredictionError with = predictionError(
+      reintegrate(m, deltaVariables(zero.data(), zero.data(), block.data()), frame, false));
+  // Read as the rpng model (the same numbers, upper triangular and the rotation on the
+  // accelerometer), the deltas miss the motion as without intrinsics.
+  const PredictionError as_rpng = predictionError(reintegrate(
+      m, deltaVariables(zero.data(), zero.data(), block.data()), ImuIntrinsicsFrame(), false));
+  EXPECT_LT(with.rotation, 1e-6);
+  EXPECT_LT(with.velocity, 4e-6);
+  EXPECT_LT(with.position, 1e-6);
+  EXPECT_GT(as_rpng.rotation, 50.0 * with.rotation);
+  EXPECT_GT(as_rpng.velocity, 50.0 * with.velocity);
+}
+
 TEST(ImuReintegration, MatchesPreintegrationAtIdentityIntrinsics) {
   const InertialSensor sensor = idealImu(500.0);
   const auto m = readings(sensor);
@@ -80,36 +124,42 @@ TEST(ImuReintegration, MatchesPreintegrationAtIdentityIntrinsics) {
 }
 
 TEST(ImuReintegration, JacobianMatchesCentralDifferences) {
-  for (bool gyro_only : {false, true}) {
-    InertialSensor sensor = idealImu(500.0);
-    sensor.intrinsics = tableFourIntrinsics();
-    const auto m = readings(sensor);
-    ImuIntrinsicsFrame frame;
-    frame.R0 = lie::expSO3(Eigen::Vector3d(0.1, -0.2, 0.3));  // a generic R0
-    frame.gyro_only = gyro_only;
-    const Eigen::Vector3d bg(2e-3, -1e-3, 1.5e-3), ba(2e-2, 1e-2, -3e-2);
-    const std::vector<double> block = intrinsicsBlock(sensor.intrinsics);
-    const ImuDeltas::Vector30d x = deltaVariables(bg.data(), ba.data(), block.data());
-    const ImuDeltas d = reintegrate(m, x, frame, true);
-    const double h = 1e-6;
-    Eigen::Matrix<double, 9, kDeltaVariables> numeric;
-    for (int k = 0; k < kDeltaVariables; ++k) {
-      ImuDeltas::Vector30d xp = x, xm = x;
-      xp[k] += h;
-      xm[k] -= h;
-      const ImuDeltas a = reintegrate(m, xp, frame, false), b = reintegrate(m, xm, frame, false);
-      numeric.block<3, 1>(0, k) =
-          (lie::logSO3(d.dR.transpose() * a.dR) - lie::logSO3(d.dR.transpose() * b.dR)) / (2 * h);
-      numeric.block<3, 1>(3, k) = (a.dp - b.dp) / (2 * h);
-      numeric.block<3, 1>(6, k) = (a.dv - b.dv) / (2 * h);
-    }
-    // Central differences with h = 1e-6 on deltas of size ~1: truncation ~1e-12, round-off
-    // ~1e-16 / 1e-6 = 1e-10 (measured 4e-10 for Jacobian entries up to 1.05).
-    EXPECT_LT((numeric - d.J).cwiseAbs().maxCoeff(), 1e-8) << gyro_only;
-    // A gyroscope's deltas do not depend on what it lacks.
-    if (gyro_only) {
-      EXPECT_EQ(d.J.middleCols(3, 3).cwiseAbs().maxCoeff(), 0.0);
-      EXPECT_EQ(d.J.middleCols(6 + ImuIntrinsicsLayout::kDa, 18).cwiseAbs().maxCoeff(), 0.0);
+  for (const bool kalibr : {false, true}) {
+    for (bool gyro_only : {false, true}) {
+      InertialSensor sensor = idealImu(500.0);
+      sensor.intrinsics = kalibr ? tableFourKalibr() : tableFourIntrinsics();
+      const auto m = readings(sensor);
+      ImuIntrinsicsFrame frame;
+      const std::vector<double> block =
+          kalibr ? kalibrBlock(sensor.intrinsics, &frame) : intrinsicsBlock(sensor.intrinsics);
+      frame.R0 = lie::expSO3(Eigen::Vector3d(0.1, -0.2, 0.3));  // a generic R0
+      frame.gyro_only = gyro_only;
+      const Eigen::Vector3d bg(2e-3, -1e-3, 1.5e-3), ba(2e-2, 1e-2, -3e-2);
+      const ImuDeltas::Vector30d x = deltaVariables(bg.data(), ba.data(), block.data());
+      const ImuDeltas d = reintegrate(m, x, frame, true);
+      const double h = 1e-6;
+      Eigen::Matrix<double, 9, kDeltaVariables> numeric;
+      for (int k = 0; k < kDeltaVariables; ++k) {
+        ImuDeltas::Vector30d xp = x, xm = x;
+        xp[k] += h;
+        xm[k] -= h;
+        const ImuDeltas a = reintegrate(m, xp, frame, false), b = reintegrate(m, xm, frame, false);
+        numeric.block<3, 1>(0, k) =
+            (lie::logSO3(d.dR.transpose() * a.dR) - lie::logSO3(d.dR.transpose() * b.dR)) / (2 * h);
+        numeric.block<3, 1>(3, k) = (a.dp - b.dp) / (2 * h);
+        numeric.block<3, 1>(6, k) = (a.dv - b.dv) / (2 * h);
+      }
+      // Central differences with h = 1e-6 on deltas of size ~1: truncation ~1e-12, round-off
+      // ~1e-16 / 1e-6 = 1e-10 (measured 4e-10 for Jacobian entries up to 1.05).
+      EXPECT_LT((numeric - d.J).cwiseAbs().maxCoeff(), 1e-8) << gyro_only << kalibr;
+      // A gyroscope's deltas do not depend on what it lacks (Da, Tg; its rotation with rpng, which
+      // is the accelerometer's).
+      if (gyro_only) {
+        EXPECT_EQ(d.J.middleCols(3, 3).cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ(
+            d.J.middleCols(6 + ImuIntrinsicsLayout::kDa, kalibr ? 15 : 18).cwiseAbs().maxCoeff(),
+            0.0);
+      }
     }
   }
 }
@@ -127,6 +177,25 @@ TEST(ImuReintegration, BlockRoundTripsToRpngMatrices) {
   EXPECT_LT((back.Tg - in.Tg).norm(), 1e-15);
   EXPECT_LT((back.R_IMUtoACC - in.R_IMUtoACC).norm(), 1e-15);
   EXPECT_EQ(back.Tw(1, 0), 0.0);
+}
+
+TEST(ImuReintegration, BlockRoundTripsToKalibrMatrices) {
+  const ImuIntrinsics in = tableFourKalibr();
+  double block[kImuIntrinsicsSize];
+  intrinsicsToBlock(in, block, true);
+  ImuIntrinsicsFrame frame;
+  frame.kalibr = true;
+  frame.R0 = in.R_IMUtoGYRO.transpose();
+  // Dw stored as its transpose's upper entries.
+  EXPECT_LT((upperTriangular(block).transpose() * in.Tw - Eigen::Matrix3d::Identity()).norm(),
+            1e-15);
+  const ImuIntrinsics back = intrinsicsFromBlock(block, frame);
+  EXPECT_LT((back.Tw - in.Tw).norm(), 1e-15);
+  EXPECT_LT((back.Ta - in.Ta).norm(), 1e-15);
+  EXPECT_LT((back.Tg - in.Tg).norm(), 1e-15);
+  EXPECT_LT((back.R_IMUtoGYRO - in.R_IMUtoGYRO).norm(), 1e-15);
+  EXPECT_TRUE(back.R_IMUtoACC.isIdentity(0.0));
+  EXPECT_EQ(back.Tw(0, 1), 0.0);
 }
 
 }  // namespace

@@ -119,12 +119,12 @@ struct EstimatorOptions {
   double intrinsics_centre_prior_px = 10.0;  // pu, pv [px]
   double distortion_prior = 0.05;            // every coefficient
   // IMU intrinsics (report Eq. 1-4, imu_reintegration.h) of every inertial sensor whose model
-  // is rpng: Dw, Da and R_IMUtoACC, and Tg with estimate_gravity_sensitivity; a gyroscope's Dw
-  // only. Sensors with model 'calibrated' keep identity intrinsics. The readings are re-integrated
-  // at the current biases and intrinsics in every evaluation (report Sec. 2.2);
-  // IntrinsicsLinearization::kFixed is the first-order alternative the report warns against,
-  // for comparison. Priors: the configuration's Tw_std, Ta_std, Tg_std, R_IMUtoACC_std where
-  // positive, else these.
+  // is rpng or kalibr, in its own model: Dw, Da and R_IMUtoACC (kalibr: R_IMUtoGYRO), and Tg with
+  // estimate_gravity_sensitivity; a gyroscope's Dw only. Sensors with model 'calibrated' keep
+  // identity intrinsics. The readings are re-integrated at the current biases and intrinsics in
+  // every evaluation (report Sec. 2.2); IntrinsicsLinearization::kFixed is the first-order
+  // alternative the report warns against, for comparison. Priors: the configuration's Tw_std,
+  // Ta_std, Tg_std, R_IMUtoACC_std (R_IMUtoGYRO_std) where positive, else these.
   bool estimate_imu_intrinsics = false;
   bool estimate_gravity_sensitivity = false;  // Tg (as OpenVINS's calib_imu_g_sensitivity)
   IntrinsicsLinearization imu_intrinsics_linearization = IntrinsicsLinearization::kReintegrate;

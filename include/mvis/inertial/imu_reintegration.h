@@ -11,6 +11,12 @@
 // A gyroscope has no accelerometer: w = Dw (w_m - b_g); the rest of its block is unused.
 // Identity intrinsics are Dw = Da = I, Tg = 0, theta = 0.
 //
+// The kalibr model (rig.h; ImuIntrinsicsFrame::kalibr) uses the same block for its own
+// parametrization: Dw, Da lower triangular, stored as their transposes' upper entries (entry
+// upperIndex(r, c) is D(c, r)), and the rotation on the gyroscope instead:
+//   [21..23] theta [rad]: R_GYROtoIMU = R0 Exp(theta), R0 = R_IMUtoGYRO^T of the configuration
+//   a = Da (a_m - b_a),   w = R_GYROtoIMU Dw (w_m - b_g - Tg a).
+//
 // Re-integration: the deltas dR, dp, dv of ImuPreintegration (same midpoint scheme) computed from
 // the raw readings at given biases and intrinsics, x = [b_g(3) b_a(3) intrinsics(24)]
 // (kDeltaVariables), with their exact derivatives in x by forward-mode automatic
@@ -41,8 +47,9 @@ struct ImuIntrinsicsLayout {
 // Position of the upper-triangular element (r, c), r <= c, among the 6 column-wise entries.
 constexpr int upperIndex(int r, int c) { return c * (c + 1) / 2 + r; }
 
-// Writes `in` as a block relative to the rotation R0 = in.R_IMUtoACC^T (theta = 0).
-void intrinsicsToBlock(const ImuIntrinsics& in, double* block);
+// Writes `in` as a block relative to the rotation R0 = in.R_IMUtoACC^T (kalibr:
+// in.R_IMUtoGYRO^T), theta = 0.
+void intrinsicsToBlock(const ImuIntrinsics& in, double* block, bool kalibr = false);
 // The rpng intrinsics of a block whose rotation is relative to R0 (R_ACCtoIMU at theta = 0).
 ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0);
 // The upper-triangular matrix of 6 column-wise entries.
@@ -59,9 +66,13 @@ enum class IntrinsicsLinearization {
 // What a sensor's readings are corrected with, besides the block: R0 and whether it is a
 // gyroscope.
 struct ImuIntrinsicsFrame {
-  Eigen::Matrix3d R0 = Eigen::Matrix3d::Identity();  // R_ACCtoIMU at theta = 0
+  Eigen::Matrix3d R0 = Eigen::Matrix3d::Identity();  // R_ACCtoIMU (kalibr: R_GYROtoIMU) at 0
   bool gyro_only = false;
+  bool kalibr = false;  // the kalibr model's parametrization (see above)
 };
+
+// The intrinsics of a block in its frame's model (rpng or kalibr).
+ImuIntrinsics intrinsicsFromBlock(const double* block, const ImuIntrinsicsFrame& frame);
 
 struct ImuDeltas {
   using Vector30d = Eigen::Matrix<double, kDeltaVariables, 1>;

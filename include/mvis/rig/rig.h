@@ -33,7 +33,8 @@ struct InertialCalibrationStd {
   Eigen::Matrix3d Tw = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d Ta = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d Tg = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d R_IMUtoACC = Eigen::Vector3d::Zero();  // [rad]
+  Eigen::Vector3d R_IMUtoACC = Eigen::Vector3d::Zero();   // [rad] (rpng)
+  Eigen::Vector3d R_IMUtoGYRO = Eigen::Vector3d::Zero();  // [rad] (kalibr)
 };
 
 // Continuous-time noise densities, as Kalibr.

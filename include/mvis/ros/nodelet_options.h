@@ -36,7 +36,7 @@ struct NodeletOptions {
   bool estimate_aux_extrinsics = true;              // T_i_b of aux IMUs (rotation of gyroscopes)
   bool estimate_aux_time_offsets = true;            // time_offset of aux IMUs and gyroscopes
   bool estimate_intrinsics = false;                 // every camera's intrinsics and distortion
-  bool estimate_imu_intrinsics = false;             // rpng sensors' Dw, Da, R_IMUtoACC
+  bool estimate_imu_intrinsics = false;             // rpng and kalibr sensors' intrinsics
   bool estimate_gravity_sensitivity = false;        // and their Tg
   std::vector<std::string> hold;                    // "<sensor>.<quantity>" held (EstimatorOptions)
   std::string aux_imu_model = "velocity_state";     // or "rigid_velocity" (report Appendix B)

@@ -70,7 +70,7 @@ struct PerturbationSizes {
   double aux_time_offset_s = 0.005;
   double imu_scale_misalignment = 0.0;   // each upper-triangular element of Tw, Ta
   double imu_gravity_sensitivity = 0.0;  // each element of Tg
-  double imu_acc_rotation_rad = 0.0;     // R_IMUtoACC
+  double imu_acc_rotation_rad = 0.0;     // R_IMUtoACC (kalibr model: R_IMUtoGYRO)
 };
 
 // The truth with every calibration quantity perturbed (imu0's extrinsic and offset stay

@@ -1,5 +1,4 @@
 // Checks of the estimator's options and of the rig they are used with, at creation.
-#include <algorithm>
 #include <string>
 #include <utility>
 #include <vector>
@@ -111,17 +110,6 @@ Status validate(const EstimatorOptions& options, const Rig& rig) {
       return Status::Error(sensor.name +
                            ": Tg (gravity sensitivity) of a gyroscope is not supported: it has "
                            "no accelerometer to read the specific force with; set it to zero");
-    }
-  }
-  for (const auto& sensor : rig.inertial) {
-    if (options.estimate_imu_intrinsics && sensor.model == ImuModel::kKalibr &&
-        std::find(options.hold.begin(), options.hold.end(), sensor.name + ".intrinsics") ==
-            options.hold.end()) {
-      return Status::Error(
-          sensor.name +
-          ": model kalibr: its intrinsics can be applied as configured but not yet estimated "
-          "(estimate_imu_intrinsics estimates the rpng model's); hold them with hold: [" +
-          sensor.name + ".intrinsics], or give the sensor model rpng");
     }
   }
   if (options.estimate_imu_intrinsics && options.aux_imu_model == AuxImuModel::kRigidVelocity) {

@@ -16,7 +16,9 @@ using L = ImuIntrinsicsLayout;
 ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions& options) {
   for (const auto& sensor : rig.inertial) {
     const bool gyro = sensor.type == InertialType::kGyroscope;
-    const bool estimated = options.estimate_imu_intrinsics && sensor.model == ImuModel::kRpng &&
+    const bool kalibr = sensor.model == ImuModel::kKalibr;
+    const bool estimated = options.estimate_imu_intrinsics &&
+                           sensor.model != ImuModel::kCalibrated &&
                            !heldByOption(options, sensor.name, "intrinsics");
     if (!estimated) {
       arrival_.emplace_back(sensor.intrinsics);
@@ -26,21 +28,26 @@ ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions&
     // The readings stay raw: the factors apply the current intrinsics.
     arrival_.emplace_back(ImuIntrinsics());
     auto b = std::make_unique<ImuIntrinsicsBlock>();
-    intrinsicsToBlock(sensor.intrinsics, b->x);
+    intrinsicsToBlock(sensor.intrinsics, b->x, kalibr);
     std::copy(b->x, b->x + kImuIntrinsicsSize, b->initial);
-    b->frame.R0 = sensor.intrinsics.R_IMUtoACC.transpose();
+    // The rotation the model estimates: the accelerometer's (rpng) or the gyroscope's (kalibr).
+    b->frame.R0 =
+        (kalibr ? sensor.intrinsics.R_IMUtoGYRO : sensor.intrinsics.R_IMUtoACC).transpose();
     b->frame.gyro_only = gyro;
+    b->frame.kalibr = kalibr;
     // Priors: the configuration's *_std where positive (Dw = Tw^-1 moves as -Tw to first order
     // near identity), else the options'.
     const auto& sd = sensor.std;
     const auto pick = [](double given, double fallback) { return given > 0.0 ? given : fallback; };
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r <= c; ++r) {
+        // The block's entry k is D(r, c), kalibr's lower-triangular D(c, r).
         const int k = upperIndex(r, c);
+        const int row = kalibr ? c : r, col = kalibr ? r : c;
         b->prior_std[L::kDw + k] =
-            pick(sd ? sd->Tw(r, c) : 0.0, options.imu_scale_misalignment_prior);
+            pick(sd ? sd->Tw(row, col) : 0.0, options.imu_scale_misalignment_prior);
         b->prior_std[L::kDa + k] =
-            pick(sd ? sd->Ta(r, c) : 0.0, options.imu_scale_misalignment_prior);
+            pick(sd ? sd->Ta(row, col) : 0.0, options.imu_scale_misalignment_prior);
       }
     }
     for (int k = 0; k < 9; ++k) {
@@ -49,11 +56,12 @@ ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions&
     }
     for (int k = 0; k < 3; ++k) {
       b->prior_std[L::kAccRotation + k] =
-          pick(sd ? sd->R_IMUtoACC[k] : 0.0, options.imu_acc_rotation_prior_rad);
+          pick(sd ? (kalibr ? sd->R_IMUtoGYRO[k] : sd->R_IMUtoACC[k]) : 0.0,
+               options.imu_acc_rotation_prior_rad);
     }
     std::vector<int> held;
-    const bool gravity =
-        options.estimate_gravity_sensitivity && !heldByOption(options, sensor.name, "gravity_sensitivity");
+    const bool gravity = options.estimate_gravity_sensitivity &&
+                         !heldByOption(options, sensor.name, "gravity_sensitivity");
     for (int k = 0; k < kImuIntrinsicsSize; ++k) {
       const bool tg = k >= L::kTg && k < L::kTg + 9;
       if ((gyro && k >= L::kDa) || (tg && !gravity)) {
@@ -81,7 +89,7 @@ void ImuIntrinsicsBlocks::addTo(ceres::Problem* problem) {
 }
 
 void ImuIntrinsicsBlocks::refreshBase() {
-  if (blocks_[0]) base_ = ImuCorrection(intrinsicsFromBlock(blocks_[0]->x, blocks_[0]->frame.R0));
+  if (blocks_[0]) base_ = ImuCorrection(intrinsicsFromBlock(blocks_[0]->x, blocks_[0]->frame));
 }
 
 bool ImuIntrinsicsBlocks::isBlock(const double* x) const {
@@ -120,11 +128,12 @@ void ImuIntrinsicsBlocks::write(Rig* out) const {
     const ImuIntrinsicsBlock* b = blocks_[i].get();
     if (b == nullptr) continue;
     InertialSensor& s = out->inertial[i];
-    s.intrinsics = intrinsicsFromBlock(b->x, b->frame.R0);
+    s.intrinsics = intrinsicsFromBlock(b->x, b->frame);
     if (!b->covariance) continue;
-    // Standard deviations of the rpng matrices to first order: Tw = Dw^-1 moves by
-    // -Tw dDw Tw, Ta likewise; R_IMUtoACC = Exp(-theta) R0^T moves on the right by
-    // -R0 Jr(-theta) dtheta.
+    // Standard deviations of the model's matrices to first order: Tw = Dw^-1 moves by
+    // -Tw dDw Tw, Ta likewise; R_IMUtoACC (kalibr: R_IMUtoGYRO) = Exp(-theta) R0^T moves on the
+    // right by -R0 Jr(-theta) dtheta.
+    const bool kalibr = b->frame.kalibr;
     const auto& C = *b->covariance;
     InertialCalibrationStd sd = s.std ? *s.std : InertialCalibrationStd{};
     const auto upperStd = [&](int offset, const Eigen::Matrix3d& T) {
@@ -133,7 +142,7 @@ void ImuIntrinsicsBlocks::write(Rig* out) const {
       for (int c = 0; c < 3; ++c) {
         for (int r = 0; r <= c; ++r) {
           Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
-          E(r, c) = 1.0;
+          (kalibr ? E(c, r) : E(r, c)) = 1.0;
           const Eigen::Matrix3d dT = -T * E * T;
           J.col(upperIndex(r, c)) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(dT.data());
         }
@@ -150,10 +159,11 @@ void ImuIntrinsicsBlocks::write(Rig* out) const {
         sd.Tg(k / 3, k % 3) = std::sqrt(std::max(C(L::kTg + k, L::kTg + k), 0.0));
       const Eigen::Vector3d theta(b->x + L::kAccRotation);
       const Eigen::Matrix3d J = -b->frame.R0 * lie::rightJacobianSO3(-theta);
-      sd.R_IMUtoACC = (J * C.block<3, 3>(L::kAccRotation, L::kAccRotation) * J.transpose())
-                          .diagonal()
-                          .cwiseMax(0.0)
-                          .cwiseSqrt();
+      (kalibr ? sd.R_IMUtoGYRO : sd.R_IMUtoACC) =
+          (J * C.block<3, 3>(L::kAccRotation, L::kAccRotation) * J.transpose())
+              .diagonal()
+              .cwiseMax(0.0)
+              .cwiseSqrt();
     }
     s.std = sd;
   }

@@ -53,9 +53,8 @@ double Landmarks::meanTagSide() const {
   return n > 0 ? sum / n : initial_side_;
 }
 
-double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera,
-                               const TagFrame& frame, const TagObservation& tag,
-                               const std::function<SE3()>& T_G_C_at) {
+double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera, const TagFrame& frame,
+                               const TagObservation& tag, const std::function<SE3()>& T_G_C_at) {
   const auto found = landmarks_.find(tag.tag_id);
   if (found != landmarks_.end()) return found->second->x;
   const SE3 T_G_C = T_G_C_at();

@@ -20,7 +20,9 @@ std::string UnobservableCalibration::text() const {
     for (std::size_t k = 0; k < elements.size(); ++k) s << (k ? ", " : "") << elements[k];
     s << ')';
     bool rate = false, force = false;
-    for (const auto& e : elements) (e.rfind("dw", 0) == 0 ? rate : force) = true;
+    for (const auto& e : elements) {
+      (e.rfind("dw", 0) == 0 || e.rfind("theta_g", 0) == 0 ? rate : force) = true;
+    }
     s << ": vary " << (rate ? "the rate of rotation about" : "") << (rate && force ? ", and " : "")
       << (force ? "the specific force along" : "") << " each of " << sensor << "'s axes"
       << (force ? " (tilt the rig, accelerate it)" : "");
@@ -43,8 +45,9 @@ namespace {
 
 // The intrinsics element a weak direction mostly moves (ambient entries `elements`), as the
 // report writes them: dw12 (Dw row 1, column 2), da33, tg21, and "theta_y" for the
-// accelerometer rotation about y.
-std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd& direction) {
+// accelerometer rotation about y (kalibr model: "theta_g_y" for the gyroscope's).
+std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd& direction,
+                        bool kalibr) {
   int k = 0;
   direction.cwiseAbs().maxCoeff(&k);
   using L = ImuIntrinsicsLayout;
@@ -54,13 +57,16 @@ std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd&
     int c = 0;
     while ((c + 1) * (c + 2) / 2 <= u) ++c;
     const int r = u - c * (c + 1) / 2;
-    return std::string(e < L::kDa ? "dw" : "da") + std::to_string(r + 1) + std::to_string(c + 1);
+    // kalibr: the entry of (r, c) holds the lower-triangular D(c, r).
+    const int row = kalibr ? c : r, col = kalibr ? r : c;
+    return std::string(e < L::kDa ? "dw" : "da") + std::to_string(row + 1) +
+           std::to_string(col + 1);
   }
   if (e < L::kAccRotation) {
     const int u = e - L::kTg;
     return "tg" + std::to_string(u / 3 + 1) + std::to_string(u % 3 + 1);
   }
-  return std::string("theta_") + "xyz"[e - L::kAccRotation];
+  return std::string(kalibr ? "theta_g_" : "theta_") + "xyz"[e - L::kAccRotation];
 }
 
 }  // namespace
@@ -79,6 +85,7 @@ struct ObservabilityMonitor::Quantity {
   std::string symbol = {};
   std::vector<int> rows = {};
   std::vector<int> elements = {};
+  bool kalibr = false;  // the block's parametrization (imu_reintegration.h)
 };
 
 ObservabilityMonitor::ObservabilityMonitor(const Rig& rig, const EstimatorOptions& options,
@@ -185,9 +192,9 @@ void ObservabilityMonitor::check(ceres::Problem* problem) {
     // (hysteresis). Their gains hover near the ratio when a reading component is only nearly
     // constant, and each release leaves a direction free with little information in the window
     // (what left it while held added none), where it moves on noise before it is held again.
-    const double ratio = q.symbol.empty()       ? options_.observability_ratio
+    const double ratio = q.symbol.empty()        ? options_.observability_ratio
                          : holds_.count(q.block) ? 4.0 * options_.imu_intrinsics_observability_ratio
-                                                : options_.imu_intrinsics_observability_ratio;
+                                                 : options_.imu_intrinsics_observability_ratio;
     if (!(ratio > 0.0)) continue;
     const WeakDirections weak = weakDirections(S * q.information * S, q.prior_std, ratio);
     if (weak.directions.cols() == 0) continue;
@@ -198,7 +205,7 @@ void ObservabilityMonitor::check(ceres::Problem* problem) {
     for (int c = 0; c < weak.directions.cols(); ++c) {
       u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
       if (!q.symbol.empty()) {
-        u.elements.push_back(elementName(q.elements, weak.directions.col(c)));
+        u.elements.push_back(elementName(q.elements, weak.directions.col(c), q.kalibr));
         continue;
       }
       if (q.size != 3) continue;
@@ -354,7 +361,7 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
         }
         I += G * C * G.transpose() / (density * density);
       }
-      Quantity q{rig_.inertial[i].name,        quantity, b->x, 0, n, Eigen::VectorXd(n),
+      Quantity q{rig_.inertial[i].name,       quantity, b->x, 0, n, Eigen::VectorXd(n),
                  Eigen::Matrix3d::Identity(), I};
       q.symbol = symbol;
       for (int k = 0; k < n; ++k) {
@@ -362,6 +369,7 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
         q.rows.push_back(tangentOf(elements[k]));
         q.elements.push_back(elements[k]);
       }
+      q.kalibr = b->frame.kalibr;
       quantities.push_back(q);
     };
     const auto unit = [](int k) {
@@ -369,27 +377,41 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
       g[k] = 1.0;
       return g;
     };
+    // rpng: D upper triangular, the rotation on the accelerometer; kalibr: D lower triangular
+    // (entry upperIndex(c, r) is D(r, c)), the rotation on the gyroscope (a gyroscope-only
+    // sensor's is held: it is its extrinsic rotation).
+    const bool kalibr = b->frame.kalibr;
     std::vector<std::vector<Term>> gyro(3), gravity(3), acc(3);
     for (int r = 0; r < 3; ++r) {
-      for (int c = r; c < 3; ++c) {
-        gyro[r].push_back({L::kDw + upperIndex(r, c), unit(c)});
-        acc[r].push_back({L::kDa + upperIndex(r, c), unit(3 + c)});
+      for (int c = 0; c < 3; ++c) {
+        if (kalibr ? c > r : c < r) continue;
+        const int entry = kalibr ? upperIndex(c, r) : upperIndex(r, c);
+        gyro[r].push_back({L::kDw + entry, unit(c)});
+        acc[r].push_back({L::kDa + entry, unit(3 + c)});
       }
       for (int c = 0; c < 3; ++c) gravity[r].push_back({L::kTg + 3 * r + c, -unit(3 + c)});
-      // Row r of -hat(a): the regressor of dtheta_k is -(e_r x e_k) . a.
+      // Row r of -hat(x) (x the specific force, kalibr: the rate): the regressor of dtheta_k is
+      // -(e_r x e_k) . x.
       for (int k = 0; k < 3; ++k) {
         const Eigen::Vector3d e = -Eigen::Vector3d::Unit(r).cross(Eigen::Vector3d::Unit(k));
         Eigen::Matrix<double, 1, 6> g = Eigen::Matrix<double, 1, 6>::Zero();
-        g.tail<3>() = e.transpose();
-        acc[r].push_back({L::kAccRotation + k, g});
+        if (kalibr) {
+          g.head<3>() = e.transpose();
+          gyro[r].push_back({L::kAccRotation + k, g});
+        } else {
+          g.tail<3>() = e.transpose();
+          acc[r].push_back({L::kAccRotation + k, g});
+        }
       }
     }
-    addChannel(gyro, sg, "gyroscope scale and misalignment", "gyro");
+    addChannel(gyro, sg, kalibr ? "gyroscope intrinsics" : "gyroscope scale and misalignment",
+               "gyro");
     if (!accel) continue;
     addChannel(gravity, sg, "gravity sensitivity", "gravity");
-    addChannel(acc, sa, "accelerometer intrinsics", "accel");
+    addChannel(acc, sa,
+               kalibr ? "accelerometer scale and misalignment" : "accelerometer intrinsics",
+               "accel");
   }
-
 }
 
 Eigen::MatrixXd ObservabilityMonitor::latestCovariance(const double* block) const {
@@ -437,8 +459,9 @@ void ObservabilityMonitor::applyHolds(ceres::Problem* problem) {
       if (change < (intrinsics_.isBlock(block) ? 0.1 : 1e-9)) continue;
     }
     Hold hold;
-    hold.base = existing != holds_.end() ? existing->second.base
-                                        : const_cast<ceres::Manifold*>(problem->GetManifold(block));
+    hold.base = existing != holds_.end()
+                    ? existing->second.base
+                    : const_cast<ceres::Manifold*>(problem->GetManifold(block));
     // The held subspace keeps the latest covariance there, D^T Sigma D; its basis is turned to
     // that matrix's eigenvectors so the kept variances are exact per direction.
     const Eigen::MatrixXd kept = D.transpose() * latestCovariance(block) * D;

@@ -28,8 +28,7 @@ void Startup::restartCamera(std::size_t c) {
   if (c == 0) frames_.clear();
 }
 
-bool Startup::add(TagFrame frame, TimeNs t, const SE3& T_G_C, int pose_tag,
-                  std::string* status) {
+bool Startup::add(TagFrame frame, TimeNs t, const SE3& T_G_C, int pose_tag, std::string* status) {
   const bool landmarks = !rig_.target;
   recordRotation(0, frame.stamp_ns, T_G_C);
   // Consecutive frames only: a gap of more than 0.25 s starts over.
@@ -72,8 +71,7 @@ bool Startup::add(TagFrame frame, TimeNs t, const SE3& T_G_C, int pose_tag,
 
 double Startup::clockCorrection(std::size_t c) const {
   if (imu_.size() < 2) return 0.0;
-  const Eigen::Matrix3d R_I_C =
-      poseToSE3(calibration_.camera(c).extrinsic).rotation().transpose();
+  const Eigen::Matrix3d R_I_C = poseToSE3(calibration_.camera(c).extrinsic).rotation().transpose();
   return mvis::clockCorrection(
       rotations_[c], R_I_C, calibration_.timeOffsetNs(c), imu_.firstStamp(), imu_.lastStamp(),
       [this](TimeNs t) { return imu_.at(t).gyro; }, kAlignRange);

@@ -29,21 +29,28 @@ void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T
   const Vec3<T> bg = x.template head<3>();
   const Vec3<T> ba = x.template segment<3>(3);
   const T* in = x.data() + 6;
-  const Mat3<T> Dw = upperT<T>(in + L::kDw);
+  // kalibr: lower triangular, stored as the transpose's upper entries.
+  const auto tri = [&](const T* d) {
+    const Mat3<T> U = upperT<T>(d);
+    return frame.kalibr ? Mat3<T>(U.transpose()) : U;
+  };
+  const Vec3<T> theta(in[L::kAccRotation], in[L::kAccRotation + 1], in[L::kAccRotation + 2]);
+  const Mat3<T> R = frame.R0.cast<T>() * expT<T>(theta);
+  // w = G (w_m - b_g - Tg a), a = M (a_m - b_a)
+  const Mat3<T> G = frame.kalibr ? Mat3<T>(R * tri(in + L::kDw)) : tri(in + L::kDw);
   Mat3<T> M = Mat3<T>::Zero(), Tg = Mat3<T>::Zero();
   if (!frame.gyro_only) {
-    const Vec3<T> theta(in[L::kAccRotation], in[L::kAccRotation + 1], in[L::kAccRotation + 2]);
-    M = frame.R0.cast<T>() * expT<T>(theta) * upperT<T>(in + L::kDa);
+    M = frame.kalibr ? tri(in + L::kDa) : Mat3<T>(R * tri(in + L::kDa));
     for (int k = 0; k < 9; ++k) Tg(k / 3, k % 3) = in[L::kTg + k];
   }
   const auto correct = [&](const ImuMeasurement& m, Vec3<T>* w, Vec3<T>* a) {
     if (frame.gyro_only) {
       *a = Vec3<T>::Zero();
-      *w = Dw * (m.gyro.cast<T>() - bg);
+      *w = G * (m.gyro.cast<T>() - bg);
       return;
     }
     *a = M * (m.accel.cast<T>() - ba);
-    *w = Dw * (m.gyro.cast<T>() - bg - Tg * *a);
+    *w = G * (m.gyro.cast<T>() - bg - Tg * *a);
   };
   dR->setIdentity();
   dp->setZero();
@@ -71,8 +78,12 @@ void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T
 
 Eigen::Matrix3d upperTriangular(const double* d) { return upperT<double>(d); }
 
-void intrinsicsToBlock(const ImuIntrinsics& in, double* block) {
-  const Eigen::Matrix3d Dw = in.Tw.inverse(), Da = in.Ta.inverse();
+void intrinsicsToBlock(const ImuIntrinsics& in, double* block, bool kalibr) {
+  Eigen::Matrix3d Dw = in.Tw.inverse(), Da = in.Ta.inverse();
+  if (kalibr) {  // lower triangular: stored as the transposes' upper entries
+    Dw.transposeInPlace();
+    Da.transposeInPlace();
+  }
   for (int c = 0; c < 3; ++c) {
     for (int r = 0; r <= c; ++r) {
       block[L::kDw + upperIndex(r, c)] = Dw(r, c);
@@ -84,6 +95,12 @@ void intrinsicsToBlock(const ImuIntrinsics& in, double* block) {
 }
 
 ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0) {
+  ImuIntrinsicsFrame frame;
+  frame.R0 = R0;
+  return intrinsicsFromBlock(block, frame);
+}
+
+ImuIntrinsics intrinsicsFromBlock(const double* block, const ImuIntrinsicsFrame& frame) {
   ImuIntrinsics out;
   out.Tw = upperTriangular(block + L::kDw).inverse();
   out.Ta = upperTriangular(block + L::kDa).inverse();
@@ -91,8 +108,14 @@ ImuIntrinsics intrinsicsFromBlock(const double* block, const Eigen::Matrix3d& R0
   out.Tw.triangularView<Eigen::StrictlyLower>().setZero();
   out.Ta.triangularView<Eigen::StrictlyLower>().setZero();
   for (int k = 0; k < 9; ++k) out.Tg(k / 3, k % 3) = block[L::kTg + k];
-  const Eigen::Matrix3d R_acc_to_imu = R0 * lie::expSO3(Eigen::Vector3d(block + L::kAccRotation));
-  out.R_IMUtoACC = R_acc_to_imu.transpose();
+  const Eigen::Matrix3d R_to_imu = frame.R0 * lie::expSO3(Eigen::Vector3d(block + L::kAccRotation));
+  if (frame.kalibr) {
+    out.Tw.transposeInPlace();
+    out.Ta.transposeInPlace();
+    out.R_IMUtoGYRO = R_to_imu.transpose();
+  } else {
+    out.R_IMUtoACC = R_to_imu.transpose();
+  }
   return out;
 }
 

@@ -116,8 +116,8 @@ ImuIntrinsics readIntrinsics(const EntryReader& entry, ImuModel model) {
 }
 
 std::optional<InertialCalibrationStd> readStd(const EntryReader& entry) {
-  const std::vector<std::string> keys = {"T_i_b_std", "time_offset_std", "Tw_std",
-                                         "Ta_std",    "Tg_std",          "R_IMUtoACC_std"};
+  const std::vector<std::string> keys = {"T_i_b_std", "time_offset_std", "Tw_std",         "Ta_std",
+                                         "Tg_std",    "R_IMUtoACC_std",  "R_IMUtoGYRO_std"};
   bool any = false;
   for (const auto& key : keys) any = any || entry.has(key);
   if (!any) return std::nullopt;
@@ -135,6 +135,9 @@ std::optional<InertialCalibrationStd> readStd(const EntryReader& entry) {
   if (entry.has("Tg_std")) std.Tg = entry.nonNegativeMatrix("Tg_std", 3, 3);
   if (entry.has("R_IMUtoACC_std")) {
     std.R_IMUtoACC = entry.nonNegativeVector("R_IMUtoACC_std", 3);
+  }
+  if (entry.has("R_IMUtoGYRO_std")) {
+    std.R_IMUtoGYRO = entry.nonNegativeVector("R_IMUtoGYRO_std", 3);
   }
   return std;
 }
@@ -191,14 +194,19 @@ InertialSensor readInertial(const EntryReader& entry, const std::string& name, b
   return s;
 }
 
-void writeStd(std::ostream& out, const InertialCalibrationStd& std) {
+void writeStd(std::ostream& out, const InertialCalibrationStd& std, ImuModel model) {
   out << "  T_i_b_std:\n    rotation: " << formatRow(std.rotation)
       << "\n    translation: " << formatRow(std.translation) << "\n";
   out << "  time_offset_std: " << formatNumber(std.time_offset) << "\n";
   out << "  Tw_std:\n" << formatMatrix(std.Tw, 4);
   out << "  Ta_std:\n" << formatMatrix(std.Ta, 4);
   out << "  Tg_std:\n" << formatMatrix(std.Tg, 4);
-  out << "  R_IMUtoACC_std: " << formatRow(std.R_IMUtoACC) << "\n";
+  // The rotation the model estimates: R_IMUtoACC (rpng) or R_IMUtoGYRO (kalibr).
+  if (model == ImuModel::kKalibr) {
+    out << "  R_IMUtoGYRO_std: " << formatRow(std.R_IMUtoGYRO) << "\n";
+  } else {
+    out << "  R_IMUtoACC_std: " << formatRow(std.R_IMUtoACC) << "\n";
+  }
 }
 
 }  // namespace
@@ -242,7 +250,7 @@ std::string imuChainToYaml(const Rig& rig) {
     out << "  Ta:\n" << formatMatrix(s.intrinsics.Ta, 4);
     out << "  R_IMUtoACC:\n" << formatMatrix(s.intrinsics.R_IMUtoACC, 4);
     out << "  Tg:\n" << formatMatrix(s.intrinsics.Tg, 4);
-    if (s.std) writeStd(out, *s.std);
+    if (s.std) writeStd(out, *s.std, s.model);
   }
   return out.str();
 }

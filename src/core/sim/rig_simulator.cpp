@@ -174,6 +174,22 @@ Rig perturbRig(const Rig& truth, const PerturbationSizes& sizes, std::uint64_t s
       }
       s.intrinsics.R_IMUtoACC =
           s.intrinsics.R_IMUtoACC * lie::expSO3(gaussian3(sizes.imu_acc_rotation_rad));
+    } else if (s.model == ImuModel::kKalibr) {
+      // Lower triangular; the rotation on the gyroscope (a gyroscope's is its extrinsic's).
+      const bool gyro = s.type == InertialType::kGyroscope;
+      for (Eigen::Matrix3d* T : {&s.intrinsics.Tw, &s.intrinsics.Ta}) {
+        if (gyro && T == &s.intrinsics.Ta) continue;
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c <= r; ++c) (*T)(r, c) += sizes.imu_scale_misalignment * normal(rng);
+        }
+      }
+      if (!gyro) {
+        for (int k = 0; k < 9; ++k) {
+          s.intrinsics.Tg(k / 3, k % 3) += sizes.imu_gravity_sensitivity * normal(rng);
+        }
+        s.intrinsics.R_IMUtoGYRO =
+            s.intrinsics.R_IMUtoGYRO * lie::expSO3(gaussian3(sizes.imu_acc_rotation_rad));
+      }
     }
   }
   for (Camera& cam : rig.cameras) {
