@@ -7,6 +7,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 
+#include <cctype>
 #include <chrono>
 #include <map>
 #include <set>
@@ -41,6 +42,21 @@ std::string otherRigLikeTopics(const std::map<std::string, std::string>& topics,
   for (const auto& [topic, type] : topics) {
     if (!kTypes.count(type) || used.count(topic)) continue;
     out += (out.empty() ? "" : ", ") + topic + " (" + type + ")";
+  }
+  return out;
+}
+
+// A message's kind: the message with every number in it replaced by '#'.
+std::string kindOf(const std::string& message) {
+  std::string out;
+  bool in_number = false;
+  for (std::size_t i = 0; i < message.size(); ++i) {
+    const char c = message[i];
+    const bool digit = std::isdigit(static_cast<unsigned char>(c)) != 0;
+    const bool part = digit || (in_number && (c == '.' || c == 'e' || c == '-'));
+    if (part && !in_number) out += '#';
+    if (!part) out += c;
+    in_number = part;
   }
   return out;
 }
@@ -118,6 +134,13 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     }
     result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
   });
+  std::map<std::string, std::size_t> kinds;  // kind -> index in result.warning_kinds
+  double bag_time = 0.0;                     // of the message being read [s from the start]
+  const auto note = [&](const std::string& message) {
+    const auto [it, added] = kinds.emplace(kindOf(message), result.warning_kinds.size());
+    if (added) result.warning_kinds.push_back({message, 0, bag_time});
+    ++result.warning_kinds[it->second].count;
+  };
   const auto start = Clock::now();
   try {
     rosbag::View view(bag, rosbag::TopicQuery(topics));
@@ -129,6 +152,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     const std::size_t total = view.size();
     for (const rosbag::MessageInstance& m : view) {
       ++done;
+      bag_time = m.getTime().toSec() - begin;
       if (options.progress && done % 2000 == 0) {
         options.progress(static_cast<double>(done) / total, m.getTime().toSec() - begin);
       }
@@ -143,9 +167,11 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         const bool gyro_only = initial.inertial[it->second].type == InertialType::kGyroscope;
         if (!ros_conversions::toImuMeasurement(*msg, gyro_only, &reading, &why)) {
           ++result.dropped_messages;
+          note(initial.inertial[it->second].name + ": dropped " + why);
           continue;
         }
-        estimator->addImu(it->second, reading);
+        const Status status = estimator->addImu(it->second, reading);
+        if (!status.ok()) note(status.message());
       } else if (image_topics.count(topic) || compressed_topics.count(topic)) {
         const bool compressed = compressed_topics.count(topic) > 0;
         const std::size_t camera = compressed ? compressed_topics[topic] : image_topics[topic];
@@ -162,6 +188,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
           result.decode_ms.push_back(msSince(t0));
           if (!decoded) {
             ++result.dropped_messages;
+            note(initial.cameras[camera].name + ": dropped " + why);
             continue;
           }
           stamp = ros_conversions::toTimeNs(msg->header.stamp);
@@ -171,6 +198,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
           if (!ros_conversions::toGray(raw_msg, &gray, &why)) {
             ++result.image_messages;
             ++result.dropped_messages;
+            note(initial.cameras[camera].name + ": dropped " + why);
             continue;
           }
           stamp = ros_conversions::toTimeNs(raw_msg->header.stamp);
@@ -182,10 +210,12 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         result.frontend_ms.push_back(msSince(t0));
         if (!tags.ok()) {
           ++result.dropped_messages;
+          note(initial.cameras[camera].name + ": dropped: " + tags.status().message());
           continue;
         }
         frontend->dropBefore(camera, stamp - kNsPerSecond);
-        estimator->addTagFrame(tags.value().frame);
+        const Status status = estimator->addTagFrame(tags.value().frame);
+        if (!status.ok()) note(status.message());
       } else if (auto id = detection_topics.find(topic); id != detection_topics.end()) {
         const auto msg = m.instantiate<mvis::TagDetectionArray>();
         if (!msg) continue;
@@ -194,11 +224,13 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         auto tags = frontend->processDetections(ros_conversions::toTagFrame(*msg, id->second));
         if (!tags.ok()) {
           ++result.dropped_messages;
+          note(initial.cameras[id->second].name + ": dropped: " + tags.status().message());
           continue;
         }
         const TimeNs stamp = ros_conversions::toTimeNs(msg->header.stamp);
         frontend->dropBefore(id->second, stamp - kNsPerSecond);
-        estimator->addTagFrame(tags.value().frame);
+        const Status status = estimator->addTagFrame(tags.value().frame);
+        if (!status.ok()) note(status.message());
       }
     }
     result.bag_seconds = end - begin;

@@ -264,6 +264,13 @@ int main(int argc, char** argv) {
   }
   const mvis::OfflineResult& r = result.value();
   for (const auto& w : r.warnings) std::fprintf(stderr, "mvis_offline: warning: %s\n", w.c_str());
+  if (!r.warning_kinds.empty()) {
+    std::fprintf(stderr, "mvis_offline: what went wrong in the bag, by kind (count, first at):\n");
+    for (const auto& w : r.warning_kinds) {
+      std::fprintf(stderr, "  %6ldx  %s  (first at %.2f s)\n", w.count, w.example.c_str(),
+                   w.first_s);
+    }
+  }
 
   const mvis::Status saved =
       mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);

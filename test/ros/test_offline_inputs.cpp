@@ -1,6 +1,9 @@
 // What bags hold for the cameras: compressed images (as rigs record them) give the same run as
-// raw images, and a bag without the configured topics says which topics it does have.
+// raw images, and a bag without the configured topics says which topics it does have; what went
+// wrong in a bag is summed up by kind.
 #include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
 
 #include <filesystem>
 
@@ -70,6 +73,47 @@ TEST(OfflineInputs, AWrongTopicNamesTheTopicsTheBagHas) {
             std::string::npos)
       << message;
   fs::remove_all(png);
+}
+
+// A bag with 0.3 s of imu0 missing at 5 s and one of imu1's readings repeated: each is one kind of
+// warning, counted, with the bag time it first happened.
+TEST(OfflineInputs, WarningsAreSummedUpByKind) {
+  const std::string rig_dir = std::string(MVIS_SOURCE_DIR) + "/config/sim_small_rig";
+  const Rig truth = loadRig(rig_dir).value();
+  SimulationConfig config = loadSimulationConfig(rig_dir + "/sim.yaml", 1).value();
+  config.camera_output = CameraOutput::kDetections;
+  const fs::path dir = fs::temp_directory_path() / "mvis_offline_inputs_warnings";
+  fs::remove_all(dir);
+  ASSERT_TRUE(writeSimulationBag(truth, config, dir.string()).ok());
+  {
+    rosbag::Bag in((dir / "sim.bag").string(), rosbag::bagmode::Read);
+    rosbag::Bag out((dir / "faulty.bag").string(), rosbag::bagmode::Write);
+    rosbag::View view(in);
+    const ros::Time begin = view.getBeginTime();
+    int repeated = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      const double t = (m.getTime() - begin).toSec();
+      if (m.getTopic() == "/imu0" && t >= 5.0 && t < 5.3) continue;
+      out.write(m.getTopic(), m.getTime(), m);
+      if (m.getTopic() == "/imu1" && t >= 7.0 && repeated++ == 0) {
+        out.write(m.getTopic(), m.getTime(), m);
+      }
+    }
+  }
+  const Rig guess = loadRig((dir / "config").string()).value();
+  OfflineOptions options;
+  options.estimator.pixel_sigma_px = config.pixel_noise_px;
+  const auto r = runOffline(guess, (dir / "faulty.bag").string(), options);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto& kinds = r.value().warning_kinds;
+  ASSERT_EQ(kinds.size(), 2u);
+  EXPECT_EQ(kinds[0].example.rfind("imu0: no reading for 0.30", 0), 0u) << kinds[0].example;
+  EXPECT_EQ(kinds[0].count, 1);
+  EXPECT_NEAR(kinds[0].first_s, 5.3, 0.01);
+  EXPECT_EQ(kinds[1].example, "imu1: reading out of order or repeated, dropped");
+  EXPECT_EQ(kinds[1].count, 1);
+  EXPECT_NEAR(kinds[1].first_s, 7.0, 0.01);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -28,6 +28,13 @@ struct OfflineOptions {
   std::function<void(double share, double bag_seconds)> progress;
 };
 
+// One kind of problem met in the bag (the messages alike but for their numbers).
+struct OfflineWarning {
+  std::string example;   // the first message of its kind
+  long count = 0;        // how often
+  double first_s = 0.0;  // when first [s of bag time]
+};
+
 struct OfflineResult {
   Rig calibration;                         // with standard deviations
   std::vector<EstimatorState> trajectory;  // every window state
@@ -42,6 +49,9 @@ struct OfflineResult {
   EstimatorCounters counters;
   std::string status;                 // the estimator's last word
   std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
+  // Every dropped message and every complaint of the estimator (a gap, a reset, a sensor that
+  // left the window) by kind, in the order they first happened.
+  std::vector<OfflineWarning> warning_kinds;
 };
 
 StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_path,
