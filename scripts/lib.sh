@@ -46,8 +46,10 @@ mvis_ros_env() {
 mvis_build() {
   export PATH="/usr/bin:$PATH"
   if [ ! -f "$MVIS_BUILD_DIR/CMakeCache.txt" ] || [ ! -f "$MVIS_BUILD_DIR/Makefile" ]; then
+    # shellcheck disable=SC2086  # MVIS_CMAKE_ARGS: extra cache entries, word-split on purpose
     cmake -S "$MVIS_ROOT" -B "$MVIS_BUILD_DIR" -DCMAKE_BUILD_TYPE=Release \
-      -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 || return 1
+      -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
+      ${MVIS_CMAKE_ARGS:-} || return 1
   fi
   make -C "$MVIS_BUILD_DIR" -j"${MVIS_JOBS:-2}" "${@:-all}"
 }

@@ -100,20 +100,17 @@ void MvisNodelet::publishDiagnostics() {
       std::snprintf(text, sizeof(text), "%.1f Hz on %s", rate, t.topic.c_str());
     }
     auto status = makeStatus(level, t.name, text);
-    diagnostic_msgs::KeyValue kv;
-    kv.key = "received";
-    kv.value = std::to_string(t.received);
-    status.values.push_back(kv);
-    kv.key = "rejected";
-    kv.value = std::to_string(t.rejected);
-    status.values.push_back(kv);
+    const auto add = [&status](const char* key, std::uint64_t value) {
+      diagnostic_msgs::KeyValue kv;
+      kv.key = key;
+      kv.value = std::to_string(value);
+      status.values.push_back(kv);
+    };
+    add("received", t.received);
+    add("rejected", t.rejected);
     if (&t - traffic_.data() >= static_cast<std::ptrdiff_t>(rig_.inertial.size())) {
-      kv.key = "tags_in_last_frame";
-      kv.value = std::to_string(t.tags_in_last_frame);
-      status.values.push_back(kv);
-      kv.key = "tags_rejected";
-      kv.value = std::to_string(t.tags_rejected);
-      status.values.push_back(kv);
+      add("tags_in_last_frame", t.tags_in_last_frame);
+      add("tags_rejected", t.tags_rejected);
     }
     array.status.push_back(status);
   }

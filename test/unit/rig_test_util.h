@@ -1,7 +1,12 @@
-// Shared fixtures for the rig I/O tests: valid file texts to break one key at a time.
+// Shared fixtures for the rig I/O tests: valid file texts to break one key at a time, and the
+// comparison of two rigs after a write and a read.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <string>
+
+#include "mvis/rig/rig.h"
 
 namespace mvis::test {
 
@@ -68,6 +73,79 @@ inline std::string replaced(std::string text, const std::string& from, const std
   const auto at = text.find(from);
   if (at == std::string::npos) return "replaced(): '" + from + "' not in the text";
   return text.replace(at, from.size(), to);
+}
+
+// Numbers are written with the shortest text that reads back exactly, and rotations are
+// re-orthonormalized on reading, which moves them by round-off only.
+inline constexpr double kRoundOff = 1e-14;
+
+inline void expectSameTransform(const SE3& a, const SE3& b) {
+  EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), kRoundOff);
+}
+
+inline void expectSameRig(const Rig& a, const Rig& b) {
+  ASSERT_EQ(a.inertial.size(), b.inertial.size());
+  for (std::size_t i = 0; i < a.inertial.size(); ++i) {
+    const auto &x = a.inertial[i], &y = b.inertial[i];
+    SCOPED_TRACE(x.name);
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.type, y.type);
+    EXPECT_EQ(x.model, y.model);
+    EXPECT_EQ(x.rostopic, y.rostopic);
+    EXPECT_EQ(x.update_rate, y.update_rate);
+    EXPECT_EQ(x.time_offset, y.time_offset);
+    expectSameTransform(x.T_i_b, y.T_i_b);
+    EXPECT_EQ(x.noise.accelerometer_noise_density, y.noise.accelerometer_noise_density);
+    EXPECT_EQ(x.noise.accelerometer_random_walk, y.noise.accelerometer_random_walk);
+    EXPECT_EQ(x.noise.gyroscope_noise_density, y.noise.gyroscope_noise_density);
+    EXPECT_EQ(x.noise.gyroscope_random_walk, y.noise.gyroscope_random_walk);
+    EXPECT_EQ(x.intrinsics.Tw, y.intrinsics.Tw);
+    EXPECT_EQ(x.intrinsics.Ta, y.intrinsics.Ta);
+    EXPECT_EQ(x.intrinsics.Tg, y.intrinsics.Tg);
+    EXPECT_LT((x.intrinsics.R_IMUtoACC - y.intrinsics.R_IMUtoACC).cwiseAbs().maxCoeff(), kRoundOff);
+    EXPECT_LT((x.intrinsics.R_IMUtoGYRO - y.intrinsics.R_IMUtoGYRO).cwiseAbs().maxCoeff(),
+              kRoundOff);
+    ASSERT_EQ(x.std.has_value(), y.std.has_value());
+    if (x.std) {
+      EXPECT_EQ(x.std->rotation, y.std->rotation);
+      EXPECT_EQ(x.std->translation, y.std->translation);
+      EXPECT_EQ(x.std->time_offset, y.std->time_offset);
+      EXPECT_EQ(x.std->Tw, y.std->Tw);
+      EXPECT_EQ(x.std->Ta, y.std->Ta);
+      EXPECT_EQ(x.std->Tg, y.std->Tg);
+      EXPECT_EQ(x.std->R_IMUtoACC, y.std->R_IMUtoACC);
+      EXPECT_EQ(x.std->R_IMUtoGYRO, y.std->R_IMUtoGYRO);
+    }
+  }
+  ASSERT_EQ(a.cameras.size(), b.cameras.size());
+  for (std::size_t i = 0; i < a.cameras.size(); ++i) {
+    const auto &x = a.cameras[i], &y = b.cameras[i];
+    SCOPED_TRACE(x.name);
+    EXPECT_EQ(x.name, y.name);
+    expectSameTransform(x.T_cam_imu, y.T_cam_imu);
+    EXPECT_EQ(x.timeshift_cam_imu, y.timeshift_cam_imu);
+    EXPECT_EQ(x.distortion_model, y.distortion_model);
+    EXPECT_EQ(x.distortion_coeffs, y.distortion_coeffs);
+    EXPECT_EQ(x.intrinsics, y.intrinsics);
+    EXPECT_EQ(x.resolution, y.resolution);
+    EXPECT_EQ(x.rostopic, y.rostopic);
+    ASSERT_EQ(x.std.has_value(), y.std.has_value());
+    if (x.std) {
+      EXPECT_EQ(x.std->rotation, y.std->rotation);
+      EXPECT_EQ(x.std->translation, y.std->translation);
+      EXPECT_EQ(x.std->timeshift_cam_imu, y.std->timeshift_cam_imu);
+      EXPECT_EQ(x.std->intrinsics, y.std->intrinsics);
+      EXPECT_EQ(x.std->distortion_coeffs, y.std->distortion_coeffs);
+    }
+  }
+  ASSERT_EQ(a.target.has_value(), b.target.has_value());
+  if (a.target) {
+    EXPECT_EQ(a.target->tag_cols, b.target->tag_cols);
+    EXPECT_EQ(a.target->tag_rows, b.target->tag_rows);
+    EXPECT_EQ(a.target->tag_size, b.target->tag_size);
+    EXPECT_EQ(a.target->tag_spacing, b.target->tag_spacing);
+    EXPECT_EQ(a.target->tag_family, b.target->tag_family);
+  }
 }
 
 }  // namespace mvis::test

@@ -7,85 +7,18 @@
 #include "mvis/rig/rig_io.h"
 #include "rig_test_util.h"
 
+using mvis::test::expectSameRig;
+using mvis::test::expectSameTransform;
+
 namespace mvis {
 namespace {
 
 namespace fs = std::filesystem;
 
-// Numbers are written with the shortest text that reads back exactly, and rotations are
-// re-orthonormalized on reading, which moves them by round-off only.
-constexpr double kRoundOff = 1e-14;
-
 fs::path freshDirectory(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("mvis_test_" + name);
   fs::remove_all(dir);
   return dir;
-}
-
-void expectSameTransform(const SE3& a, const SE3& b) {
-  EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), kRoundOff);
-}
-
-void expectSameRig(const Rig& a, const Rig& b) {
-  ASSERT_EQ(a.inertial.size(), b.inertial.size());
-  for (std::size_t i = 0; i < a.inertial.size(); ++i) {
-    const auto &x = a.inertial[i], &y = b.inertial[i];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    EXPECT_EQ(x.type, y.type);
-    EXPECT_EQ(x.model, y.model);
-    EXPECT_EQ(x.rostopic, y.rostopic);
-    EXPECT_EQ(x.update_rate, y.update_rate);
-    EXPECT_EQ(x.time_offset, y.time_offset);
-    expectSameTransform(x.T_i_b, y.T_i_b);
-    EXPECT_EQ(x.noise.accelerometer_noise_density, y.noise.accelerometer_noise_density);
-    EXPECT_EQ(x.noise.accelerometer_random_walk, y.noise.accelerometer_random_walk);
-    EXPECT_EQ(x.noise.gyroscope_noise_density, y.noise.gyroscope_noise_density);
-    EXPECT_EQ(x.noise.gyroscope_random_walk, y.noise.gyroscope_random_walk);
-    EXPECT_EQ(x.intrinsics.Tw, y.intrinsics.Tw);
-    EXPECT_EQ(x.intrinsics.Ta, y.intrinsics.Ta);
-    EXPECT_EQ(x.intrinsics.Tg, y.intrinsics.Tg);
-    EXPECT_LT((x.intrinsics.R_IMUtoACC - y.intrinsics.R_IMUtoACC).cwiseAbs().maxCoeff(), kRoundOff);
-    ASSERT_EQ(x.std.has_value(), y.std.has_value());
-    if (x.std) {
-      EXPECT_EQ(x.std->rotation, y.std->rotation);
-      EXPECT_EQ(x.std->translation, y.std->translation);
-      EXPECT_EQ(x.std->time_offset, y.std->time_offset);
-      EXPECT_EQ(x.std->Tw, y.std->Tw);
-      EXPECT_EQ(x.std->Ta, y.std->Ta);
-      EXPECT_EQ(x.std->Tg, y.std->Tg);
-      EXPECT_EQ(x.std->R_IMUtoACC, y.std->R_IMUtoACC);
-    }
-  }
-  ASSERT_EQ(a.cameras.size(), b.cameras.size());
-  for (std::size_t i = 0; i < a.cameras.size(); ++i) {
-    const auto &x = a.cameras[i], &y = b.cameras[i];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    expectSameTransform(x.T_cam_imu, y.T_cam_imu);
-    EXPECT_EQ(x.timeshift_cam_imu, y.timeshift_cam_imu);
-    EXPECT_EQ(x.distortion_model, y.distortion_model);
-    EXPECT_EQ(x.distortion_coeffs, y.distortion_coeffs);
-    EXPECT_EQ(x.intrinsics, y.intrinsics);
-    EXPECT_EQ(x.resolution, y.resolution);
-    EXPECT_EQ(x.rostopic, y.rostopic);
-    ASSERT_EQ(x.std.has_value(), y.std.has_value());
-    if (x.std) {
-      EXPECT_EQ(x.std->rotation, y.std->rotation);
-      EXPECT_EQ(x.std->translation, y.std->translation);
-      EXPECT_EQ(x.std->timeshift_cam_imu, y.std->timeshift_cam_imu);
-      EXPECT_EQ(x.std->intrinsics, y.std->intrinsics);
-      EXPECT_EQ(x.std->distortion_coeffs, y.std->distortion_coeffs);
-    }
-  }
-  ASSERT_EQ(a.target.has_value(), b.target.has_value());
-  if (a.target) {
-    EXPECT_EQ(a.target->tag_cols, b.target->tag_cols);
-    EXPECT_EQ(a.target->tag_rows, b.target->tag_rows);
-    EXPECT_EQ(a.target->tag_size, b.target->tag_size);
-    EXPECT_EQ(a.target->tag_spacing, b.target->tag_spacing);
-    EXPECT_EQ(a.target->tag_family, b.target->tag_family);
-  }
 }
 
 TEST(RigIo, LoadsTheShippedVIRig) {

@@ -10,6 +10,7 @@
 #include "mvis/common/lie.h"
 #include "mvis/inertial/imu_correction.h"
 #include "mvis/rig/rig_io.h"
+#include "rig_test_util.h"
 
 namespace mvis {
 namespace {
@@ -23,8 +24,8 @@ bool mentions(const std::vector<std::string>& warnings, const std::string& text)
   return false;
 }
 
-// Read, write, read: every value the same to printing precision (rotations re-orthonormalized on
-// the first read only move by round-off after it).
+// Read, write, read: every value the same (rotations re-orthonormalized on the first read move
+// by round-off only after it).
 void expectRoundTrip(const Rig& rig, const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("mvis_test_formats_" + name);
   std::filesystem::remove_all(dir);
@@ -33,32 +34,7 @@ void expectRoundTrip(const Rig& rig, const std::string& name) {
   const auto again = loadRig(dir.string(), &warnings);
   ASSERT_TRUE(again.ok()) << again.status().message();
   EXPECT_TRUE(warnings.empty()) << warnings.front();
-  const Rig& r = again.value();
-  ASSERT_EQ(r.inertial.size(), rig.inertial.size());
-  ASSERT_EQ(r.cameras.size(), rig.cameras.size());
-  for (std::size_t i = 0; i < rig.inertial.size(); ++i) {
-    const InertialSensor &a = rig.inertial[i], &b = r.inertial[i];
-    EXPECT_EQ(a.model, b.model) << a.name;
-    EXPECT_LT((a.T_i_b.matrix() - b.T_i_b.matrix()).cwiseAbs().maxCoeff(), 1e-15) << a.name;
-    EXPECT_EQ(a.time_offset, b.time_offset);
-    for (const auto& [x, y] : {std::pair{&a.intrinsics.Tw, &b.intrinsics.Tw},
-                               {&a.intrinsics.Ta, &b.intrinsics.Ta},
-                               {&a.intrinsics.Tg, &b.intrinsics.Tg},
-                               {&a.intrinsics.R_IMUtoGYRO, &b.intrinsics.R_IMUtoGYRO},
-                               {&a.intrinsics.R_IMUtoACC, &b.intrinsics.R_IMUtoACC}}) {
-      EXPECT_LT((*x - *y).cwiseAbs().maxCoeff(), 1e-15) << a.name;
-    }
-  }
-  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-    const Camera &a = rig.cameras[c], &b = r.cameras[c];
-    EXPECT_LT((a.T_cam_imu.matrix() - b.T_cam_imu.matrix()).cwiseAbs().maxCoeff(), 1e-15);
-    EXPECT_EQ(a.timeshift_cam_imu, b.timeshift_cam_imu);
-    EXPECT_EQ(a.intrinsics, b.intrinsics);
-    EXPECT_EQ(a.distortion_coeffs, b.distortion_coeffs);
-    EXPECT_EQ(a.distortion_model, b.distortion_model);
-    EXPECT_EQ(a.resolution, b.resolution);
-    EXPECT_EQ(a.rostopic, b.rostopic);
-  }
+  test::expectSameRig(rig, again.value());
   std::filesystem::remove_all(dir);
 }
 
