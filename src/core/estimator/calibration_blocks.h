@@ -55,7 +55,6 @@ struct AuxCalibration {
   std::optional<InertialCalibrationStd> std;
 
   double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
-  const double* extrinsicBlock() const { return gyro ? rotation : extrinsic; }
   // The extrinsic rotation R_AI and translation p_AI of T_i_b (p_A = R_AI p_I + p_AI).
   void extrinsicParts(Eigen::Matrix3d* R_AI, Eigen::Vector3d* p_AI) const;
 };
@@ -79,7 +78,6 @@ class CalibrationBlocks {
   AuxCalibration& aux(std::size_t i) { return *aux_[i]; }
   const AuxCalibration& aux(std::size_t i) const { return *aux_[i]; }
   double* gravity() { return gravity_; }
-  const double* gravity() const { return gravity_; }
 
   // Camera c's time offset [ns].
   TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras_[c]->time_offset[0]); }

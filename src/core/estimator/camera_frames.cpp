@@ -124,9 +124,10 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   std::vector<std::pair<std::vector<CornerObservation>, double*>> groups;
   *corners = 0;
   if (!rig_.target) {
+    const Camera camera = calibration_.currentCamera(c);  // for the tags seen the first time
     for (const auto& tag : frame.tags) {
-      double* landmark = landmarks_.landmarkFor(window_.problem(), calibration_.currentCamera(c),
-                                                frame, tag, [&] { return cameraPoseAt(frame, k); });
+      double* landmark = landmarks_.landmarkFor(window_.problem(), camera, frame, tag,
+                                                [&] { return cameraPoseAt(frame, k); });
       if (landmark == nullptr) continue;
       std::vector<CornerObservation> obs;
       for (int i = 0; i < 4; ++i) obs.push_back({Eigen::Vector3d::Zero(), tag.corners_px[i], i});

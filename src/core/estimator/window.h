@@ -25,12 +25,10 @@ class Window {
   // A new, empty problem without states (everything in the old one is dropped).
   void reset();
   ceres::Problem* problem() { return problem_.get(); }
-  const ceres::Problem& problem() const { return *problem_; }
 
   std::size_t size() const { return states_.size(); }
   bool empty() const { return states_.empty(); }
   State& state(std::size_t k) { return *states_[k]; }
-  const State& state(std::size_t k) const { return *states_[k]; }
   State& newest() { return *states_.back(); }
   const State& newest() const { return *states_.back(); }
   State& oldest() { return *states_.front(); }
