@@ -88,6 +88,10 @@ add_custom_command(OUTPUT ${MVIS_NOBOARD_CONFIG}/kalibr_imu_chain.yaml
   COMMAND ${CMAKE_COMMAND} -E remove ${MVIS_NOBOARD_CONFIG}/aprilgrid.yaml
   DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
 add_custom_target(mvis_noboard_config DEPENDS ${MVIS_NOBOARD_CONFIG}/kalibr_imu_chain.yaml)
+# The bag's rule is also written into this target (its output is a dependency above): without
+# this order both targets could run it at once under make -j (seen when mvis_simulate changed:
+# one copy of the rig removed under the other).
+add_dependencies(mvis_noboard_config mvis_replay_data)
 add_dependencies(tests mvis_noboard_config)
 add_rostest(test/ros/replay_noboard.test
   ARGS data:=${MVIS_REPLAY_DATA} config:=${MVIS_NOBOARD_CONFIG}
