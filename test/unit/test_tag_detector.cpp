@@ -50,42 +50,28 @@ std::unique_ptr<TagDetector> makeDetector(const TagDetectorOptions& options) {
 }
 
 // The expected corners are libapriltag's own output at its test settings (see
-// test/data/real_tags/ORIGIN.md), not ground truth, so mvis's refinement is off here: this
-// checks the wrapping, the pixel convention and the ids against the library's reference. How far
-// the refinement moves these corners is printed; its accuracy is tested on rendered boards.
-TEST(TagDetector, FindsTheExpectedTagsInRealPhotos) {
-  TagDetectorOptions options;
-  options.decimate = 1.0;
-  options.refine_edges = false;
-  options.refine_corners = false;
-  options.max_hamming = 2;
-  const auto detector = makeDetector(options);
-  TagDetectorOptions refining = options;
-  refining.refine_corners = true;
-  const auto refiner = makeDetector(refining);
-  double largest_refinement_px = 0.0;
-  int expected_total = 0, found_total = 0;
+// test/data/real_tags/ORIGIN.md), not ground truth. With libapriltag as the engine and no
+// refinement this checks the wrapping, the pixel convention and the ids against the library's
+// reference; with mvis's engine it checks that mvis finds the same tags in photos it was not
+// made on (single tags on cubes, with shadows and clutter), its corners within the library's own
+// scatter (its refine_edges alone moves them by ~0.4 px).
+struct PhotoResult {
+  int expected = 0, found = 0;
   double worst_px = 0.0;
+};
+
+PhotoResult comparePhotos(const TagDetector& detector, double max_corner_px) {
+  PhotoResult result;
   for (const std::string name :
        {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c", "34139872896_defdb2f8d9_c"}) {
     const cv::Mat image = cv::imread(kRealTags + name + ".jpg", cv::IMREAD_GRAYSCALE);
-    ASSERT_FALSE(image.empty()) << name;
+    EXPECT_FALSE(image.empty()) << name;
     const auto expected = readExpected(kRealTags + name + ".txt");
-    ASSERT_FALSE(expected.empty()) << name;
-    const auto found = detector->detect(image);
-    ASSERT_TRUE(found.ok());
-    const auto refined = refiner->detect(image);
-    ASSERT_TRUE(refined.ok());
-    ASSERT_EQ(refined.value().size(), found.value().size());
-    for (std::size_t i = 0; i < found.value().size(); ++i) {
-      for (int c = 0; c < 4; ++c) {
-        largest_refinement_px =
-            std::max(largest_refinement_px,
-                     (refined.value()[i].corners_px[c] - found.value()[i].corners_px[c]).norm());
-      }
-    }
+    EXPECT_FALSE(expected.empty()) << name;
+    const auto found = detector.detect(image);
+    EXPECT_TRUE(found.ok());
     for (const auto& e : expected) {
-      ++expected_total;
+      ++result.expected;
       // The same id, nearest centre (every tag in these photos has id 0).
       const TagObservation* best = nullptr;
       double best_distance = 1e9;
@@ -99,25 +85,43 @@ TEST(TagDetector, FindsTheExpectedTagsInRealPhotos) {
           best = &tag;
         }
       }
-      if (!best || best_distance > 3.0) {
-        ADD_FAILURE() << name << ": expected tag " << e.id << " at "
-                      << centre(e.corners).transpose() << " not found";
-        continue;
-      }
-      ++found_total;
+      if (!best || best_distance > 3.0) continue;
+      ++result.found;
       for (int c = 0; c < 4; ++c) {
         const double error =
             (best->corners_px[c] + Eigen::Vector2d(0.5, 0.5) - e.corners[c]).norm();
-        worst_px = std::max(worst_px, error);
-        EXPECT_LT(error, 0.5) << name << " tag at " << centre(e.corners).transpose() << " corner "
-                              << c;
+        result.worst_px = std::max(result.worst_px, error);
+        EXPECT_LT(error, max_corner_px) << name << " tag at " << centre(e.corners).transpose()
+                                        << " corner " << c;
       }
     }
   }
-  std::printf(
-      "real photos: %d of %d expected tags found, worst corner error %.3f px; mvis refinement "
-      "moves corners by up to %.3f px\n",
-      found_total, expected_total, worst_px, largest_refinement_px);
+  return result;
+}
+
+TEST(TagDetector, LibapriltagFindsItsOwnTagsInRealPhotos) {
+  TagDetectorOptions options;
+  options.use_libapriltag = true;
+  options.decimate = 1.0;
+  options.refine_edges = false;
+  options.refine_corners = false;
+  options.max_hamming = 2;
+  const PhotoResult r = comparePhotos(*makeDetector(options), 0.5);
+  std::printf("libapriltag on real photos: %d of %d expected tags, worst corner %.3f px\n",
+              r.found, r.expected, r.worst_px);
+  EXPECT_GE(r.found, r.expected - 1);  // Debian's 3.3.0 misses one (ORIGIN.md)
+}
+
+// Measured: 43 of 47; the four missed are tags of 13-19 px on cubes at the image's edge or
+// behind others, which libapriltag's gradient-based quads reach and mvis's thresholded ones
+// do not. Corners: tags under 20 px (cells under 2.5 px) keep the quad finder's corners, up to
+// ~1.6 px from the library's, as does one half-hidden tag under a cube; the rest within 1 px.
+TEST(TagDetector, MvisFindsTheLibrarysTagsInRealPhotos) {
+  const PhotoResult r = comparePhotos(*makeDetector(TagDetectorOptions()), 2.0);
+  std::printf("mvis on real photos: %d of %d expected tags, worst corner %.3f px from the "
+              "library's\n",
+              r.found, r.expected, r.worst_px);
+  EXPECT_GE(r.found, r.expected - 4);
 }
 
 struct RenderedScene {

@@ -1,19 +1,32 @@
-// Sub-pixel refinement of a tag's corners from its edges.
+// Sub-pixel corners of a decoded tag from its edges, knowing its printed pattern.
 //
-// libapriltag fits its quad to thresholded contours and (with refine_edges) nudges edges along
-// gradients; its corners still stray by about 0.2 px on clean rendered images. Here each side
-// of the quad is re-measured: across the side, at many points along its middle 70%, the
-// intensity profile is sampled (bilinear, 0.25 px steps) and the edge located from the
-// profile's area between its dark and bright levels (the first moment of the step: exact for a
-// straight edge under pixel-area filtering, whatever its phase within a pixel, where a halfway
-// crossing of the interpolated profile errs by up to ~0.15 px). A line is fitted to each side's
-// edge points (total least squares) and the corners are the intersections of neighbouring
-// lines.
+// Each side of the tag's detected square is an edge between the white ring outside and the
+// black border inside. Beyond the border, one cell in, lie the data cells: where one is white,
+// the border is a black stripe one cell wide and blur (the lens, the sensor's pixel area) lets
+// that stripe's inner edge pull on the outer one. Every method that locates the edge from its
+// own profile alone (a gradient peak, a halfway crossing, a first moment with levels taken
+// from the profile's ends) is pulled outwards there; that was mvis's old refinement's outward
+// bias of ~0.04 px on images rendered by others. Knowing the code, this refinement measures
+// each side only across data cells that are black (the black then reaches two cells in and the
+// edge is a plain step) and falls back to the white ones, with a narrower window, only for a side
+// without any.
+//
+// Across such a cell the edge's offset e along the inward normal t comes from the image's
+// black area in a window t in [-r, r] (r = 3/4 of a cell, at most 6 px): with the white and
+// black levels W, B measured in the window's outer quarters [-r, -r/2] and [r/2, r],
+//   sum_p w_p (W - I_p) / (W - B) = sum_p w_p S(t_p - e)
+// over the pixels p in the window, w_p the part of a pixel's footprint inside it and S the
+// step seen through that footprint. Area is what pixels preserve, so this holds whatever the
+// edge's phase within a pixel, and blur only moves area across t = e symmetrically; blur also
+// dims both levels alike, which cancels in a window centred on the edge (each pass re-centres
+// it). A line is fitted to each side's offsets and the corners are the neighbouring lines'
+// intersections; three passes.
 //
 // Lens distortion bends long edges; the straight-line model holds for tags that span a small
 // part of the image.
 #pragma once
 
+#include <functional>
 #include <opencv2/core/mat.hpp>
 
 #include "mvis/frontend/tag_observation.h"
@@ -21,18 +34,27 @@
 namespace mvis {
 
 struct CornerRefinementOptions {
-  double edge_margin = 0.15;   // part of each side left out at either end
-  double min_contrast = 20.0;  // bright - dark below this: the sample is not used
+  double min_contrast = 20.0;  // white - black below this [grey levels]: the side is not used
   double max_shift_px = 1.5;   // a corner that would move further is left as it was
-  int width_at_border = 8;     // cells across the detected square (family dependent)
-  // Smaller tags are left alone: the profile must fit inside one border cell on each side of
-  // the edge; measured on rendered boards, cells of 3 px refine worse than libapriltag.
-  double min_cell_px = 4.0;
+  double min_cell_px = 2.0;    // narrower cells (across the edge) are not measured [px]
+  int passes = 3;
+  // Cells known white outside the square: 1 for libapriltag's ring; Kalibr's gaps are wider.
+  double white_outside_cells = 1.0;
+  // Also measure across the border's corner cells (the half away from the corner): right for
+  // tags with a white ring, wrong next to Kalibr's black squares.
+  bool corner_cells = true;
+  // Corners where a black square touches the tag (Kalibr's AprilGrid) taken as the X-junction's
+  // centre instead (junction_refinement.h): immune to the camera's gamma, which moves edges.
+  bool junctions = false;
 };
 
+// Cell (row, col) of the upright tag's detected square, width x width cells, row 0 at the top;
+// rows and columns -1 and width are the white ring: true for black.
+using TagCells = std::function<bool(int row, int col)>;
+
 // Refines `tag` in place from `gray` (CV_8UC1). Returns false, leaving the tag unchanged, when a
-// side has too few usable edge points or a corner would move more than max_shift_px.
-bool refineTagCorners(const cv::Mat& gray, TagObservation* tag,
+// side has no usable cell or a corner would move more than max_shift_px.
+bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
                       const CornerRefinementOptions& options);
 
 }  // namespace mvis

@@ -1,6 +1,13 @@
-// AprilTag detection in one grayscale image, wrapping libapriltag (which stays out of this
-// header). Corners come out in mvis's pixel convention ((0, 0) at the centre of the top-left
-// pixel), half a pixel from libapriltag's own.
+// AprilTag detection in one grayscale image. Corners come out in mvis's pixel convention ((0, 0)
+// at the centre of the top-left pixel) and order.
+//
+// Two engines. mvis's own (the default, for the families whose bits lie inside a black border:
+// tag36h11, tag25h9, tag16h5) finds tags on plain boards and on Kalibr AprilGrids alike, where
+// the black squares between the tags touch every tag's corners (tag_quads.h says how), reads
+// their codes (tag_reading.h) and refines the corners knowing the code (corner_refinement.h).
+// libapriltag's (use_libapriltag, and always for the other families) cannot see AprilGrids;
+// its corners are refined the same way where the family allows. libapriltag stays out of this
+// header.
 #pragma once
 
 #include <cstdint>
@@ -16,19 +23,24 @@ namespace mvis {
 
 struct TagDetectorOptions {
   std::string family = "tag36h11";  // any of supportedTagFamilies()
-  double decimate = 2.0;            // quad detection on an image this many times smaller (>= 1);
-                                    // edges and corners are refined at full resolution
-  double blur_sigma = 0.0;          // Gaussian blur [px] before quad detection; < 0 sharpens
-  bool refine_edges = true;         // snap quad edges to strong gradients at full resolution
+  bool use_libapriltag = false;     // libapriltag's detector instead of mvis's (no AprilGrids)
+  double decimate = 1.0;            // quads searched in an image this many times smaller (>= 1);
+                                    // codes and corners are read at full resolution
+  int max_hamming = 1;          // bits the decoder may correct (0..2); more invites wrong ids
+  bool refine_corners = true;   // sub-pixel corners from the edges (corner_refinement.h)
+  double min_contrast = 20.0;   // mvis engine: black to white of a tag at least [grey levels]
+  double tag_spacing = 0.0;     // the board's gap between tags / tag size (aprilgrid.yaml's
+                                // tagSpacing); 0: a lone tag, white only in its ring
+  // libapriltag engine only:
+  double blur_sigma = 0.0;   // Gaussian blur [px] before quad detection; < 0 sharpens
+  bool refine_edges = true;  // snap quad edges to strong gradients at full resolution
   double decode_sharpening = 0.25;
-  int threads = 1;             // libapriltag worker threads
-  int max_hamming = 1;         // bits the decoder may correct (0..2); more invites wrong ids
-  bool refine_corners = true;  // mvis's edge-based sub-pixel refinement (corner_refinement.h)
+  int threads = 1;  // worker threads
 
   std::string validate() const;  // empty when usable
 };
 
-// The printed patterns of a family's first `count` tags: one byte per cell (0 black, 255 white),
+// The printed patterns of a family's first `count` tags (every tag for count < 0): one byte per cell (0 black, 255 white),
 // row-major, row 0 at the top of the upright tag. The detected square spans the middle
 // width_at_border cells; the rest is the outer ring.
 struct TagPatterns {
@@ -45,9 +57,9 @@ class TagDetector {
   TagDetector(const TagDetector&) = delete;
   TagDetector& operator=(const TagDetector&) = delete;
 
-  // Every tag found in `gray` (CV_8UC1, any stride). Nothing is filtered here beyond what the
-  // decoder does; pass the result through checkTagFrame(). An empty or non-8-bit image gives an
-  // error, never a crash.
+  // Every tag found in `gray` (CV_8UC1, any stride), each id at most once. Nothing is filtered
+  // here beyond what the decoder does; pass the result through checkTagFrame(). An empty or
+  // non-8-bit image gives an error, never a crash.
   StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray) const;
 
   const TagDetectorOptions& options() const { return options_; }

@@ -21,7 +21,7 @@
 namespace mvis {
 
 struct TagFrontendOptions {
-  TagDetectorOptions detector;  // detector.family is taken from the rig's board when it has one
+  TagDetectorOptions detector;  // family and tag_spacing are taken from the rig's board if any
   TagCheckOptions checks;       // checks.num_board_tags likewise
 };
 

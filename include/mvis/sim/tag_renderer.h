@@ -1,5 +1,8 @@
 // Renders images of a planar AprilTag board (the aprilgrid.yaml layout) with anti-aliasing, for
-// the simulator and for tests with known corners.
+// the simulator and for tests with known corners. Two kinds of board: plain (libapriltag's tags,
+// a one-cell black border, white between the tags) and Kalibr's AprilGrid (two-cell borders, a
+// black square of the gap's size at every crossing of the gaps, the outer ones included); in
+// both, tag_size is the edge of a tag's black square.
 //
 // The camera model enters only through `pixel_to_board`: for a pixel position (u, v) in mvis's
 // convention ((0, 0) at the centre of the top-left pixel) it returns the board point (x, y) [m]
@@ -28,6 +31,7 @@ struct RenderOptions {
   double white = 230.0;       // intensity of the white board
   double background = 110.0;  // where the ray misses the board
   double margin_tags = 1.0;   // white board beyond the outer tags, in tag pitches
+  double blur_sigma = 0.0;    // Gaussian blur after pixel-area averaging [px] (optics)
   double noise_sigma = 0.0;   // Gaussian pixel noise [intensity]
   std::uint32_t seed = 1;     // for the sample jitter and the noise
 };
@@ -52,10 +56,16 @@ class CameraRays {
   std::vector<float> rays_;
 };
 
+enum class BoardKind {
+  kPlain,        // libapriltag's tags, one-cell border
+  kKalibrGrid,   // Kalibr's AprilGrid: two-cell borders, black squares between the tags
+};
+
 class TagBoardRenderer {
  public:
-  // Fails if the grid's family is unknown.
-  static StatusOr<std::unique_ptr<TagBoardRenderer>> create(const AprilGrid& grid);
+  // Fails if the grid's family is unknown or has no plain border (Kalibr kind).
+  static StatusOr<std::unique_ptr<TagBoardRenderer>> create(const AprilGrid& grid,
+                                                            BoardKind kind = BoardKind::kPlain);
 
   cv::Mat render(int width, int height, const PixelToBoard& pixel_to_board,
                  const RenderOptions& options) const;
@@ -72,6 +82,7 @@ class TagBoardRenderer {
  private:
   TagBoardRenderer() = default;
   AprilGrid grid_;
+  BoardKind kind_ = BoardKind::kPlain;
   int total_width_ = 0;      // pattern cells across, including the outer ring
   int width_at_border_ = 0;  // cells across the tag's detected square
   std::vector<std::vector<std::uint8_t>> patterns_;  // per tag id, row-major, row 0 = top

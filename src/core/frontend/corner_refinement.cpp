@@ -1,138 +1,311 @@
 #include "mvis/frontend/corner_refinement.h"
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <vector>
 
+#include "junction_refinement.h"
+#include "tag_homography.h"
+
 namespace mvis {
 namespace {
 
-constexpr double kProfileStepPx = 0.25;
+constexpr double kMaxWindowPx = 10.0;
 
-// Bilinear intensity at (u, v) in mvis's pixel convention; nullopt outside the image.
-std::optional<double> sample(const cv::Mat& gray, double u, double v) {
-  const int c = static_cast<int>(std::floor(u));
-  const int r = static_cast<int>(std::floor(v));
-  if (c < 0 || r < 0 || c + 1 >= gray.cols || r + 1 >= gray.rows) return std::nullopt;
-  const double a = u - c, b = v - r;
-  const auto* row0 = gray.ptr<std::uint8_t>(r);
-  const auto* row1 = gray.ptr<std::uint8_t>(r + 1);
-  return (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) +
-         b * ((1 - a) * row1[c] + a * row1[c + 1]);
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
 }
 
-// Offset along `normal` from `point` of the edge between the tag's side (negative offsets)
-// and the outside. The profile is normalized between its two end levels; its area is the
-// length of the outer part of the window, so offset = reach - area. Box filtering by pixels
-// preserves area, which makes this exact for a straight step edge whatever its phase within a
-// pixel (a halfway crossing of the interpolated profile is not). nullopt if the profile is
-// flat, leaves the image, or puts the edge outside the window.
-std::optional<double> edgeOffset(const cv::Mat& gray, const Eigen::Vector2d& point,
-                                 const Eigen::Vector2d& normal, double reach_px,
-                                 double min_contrast) {
-  const int half = static_cast<int>(std::floor(reach_px / kProfileStepPx));
-  const double reach = half * kProfileStepPx;
-  std::vector<double> profile(2 * half + 1);
-  for (int k = -half; k <= half; ++k) {
-    const Eigen::Vector2d p = point + (k * kProfileStepPx) * normal;
-    const auto value = sample(gray, p.x(), p.y());
-    if (!value) return std::nullopt;
-    profile[k + half] = *value;
-  }
-  // Levels from the last quarter of the window on either side.
-  const int quarter = std::max(1, half / 4);
-  double inner = 0.0, outer = 0.0;
-  for (int k = 0; k < quarter; ++k) {
-    inner += profile[k];
-    outer += profile[2 * half - k];
-  }
-  inner /= quarter;
-  outer /= quarter;
-  if (std::abs(outer - inner) < min_contrast) return std::nullopt;
-  double area = 0.0;  // trapezoidal rule over the normalized profile
-  for (int k = 0; k < 2 * half; ++k) {
-    const double f0 = (profile[k] - inner) / (outer - inner);
-    const double f1 = (profile[k + 1] - inner) / (outer - inner);
-    area += 0.5 * (f0 + f1) * kProfileStepPx;
-  }
-  const double offset = reach - area;
-  if (std::abs(offset) > 0.75 * reach) return std::nullopt;
-  return offset;
+// One pixel of a window across an edge.
+struct EdgePixel {
+  double t;       // offset along the inward normal from the current edge [px]
+  double value;   // intensity
+  double weight;  // part of its footprint inside the window
+};
+
+// A side of the detected square in pattern coordinates: from `start`, `width` cells along
+// `along`, with `inward` pointing into the tag.
+struct PatternSide {
+  Eigen::Vector2d start, along, inward;
+};
+
+std::array<PatternSide, 4> patternSides(double w) {
+  return {PatternSide{{0, 0}, {1, 0}, {0, 1}},    // top
+          PatternSide{{w, 0}, {0, 1}, {-1, 0}},   // right
+          PatternSide{{w, w}, {-1, 0}, {0, -1}},  // bottom
+          PatternSide{{0, w}, {0, -1}, {1, 0}}};  // left
 }
 
-struct Line {
-  Eigen::Vector2d point;
+// The pixels of the window t in [-reach_out, reach_in] across the edge segment e0 -> e1, with
+// inward normal n. Its lateral sides run along `across`, the image of the pattern's inward
+// direction: under perspective the cells are sheared, and a window cut square to the edge would
+// reach into the neighbouring cells.
+void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::Vector2d& e1,
+                   const Eigen::Vector2d& n, const Eigen::Vector2d& across, double reach_out,
+                   double reach_in, std::vector<EdgePixel>* out) {
+  const double reach = std::max(reach_out, reach_in);
+  out->clear();
+  const Eigen::Vector2d d = e1 - e0;
+  // p - e0 = lateral * d + m * across; lateral = cross(p - e0, across) / cross(d, across).
+  const double det = d.x() * across.y() - d.y() * across.x();
+  if (std::abs(det) < 1e-6) return;
+  // Half the pixel's footprint along n.
+  const double half = 0.5 * (std::abs(n.x()) + std::abs(n.y()));
+  const double lo_x = std::min({e0.x(), e1.x()}) - reach - 1.0;
+  const double hi_x = std::max({e0.x(), e1.x()}) + reach + 1.0;
+  const double lo_y = std::min({e0.y(), e1.y()}) - reach - 1.0;
+  const double hi_y = std::max({e0.y(), e1.y()}) + reach + 1.0;
+  const int c0 = std::max(0, static_cast<int>(std::ceil(lo_x)));
+  const int c1 = std::min(gray.cols - 1, static_cast<int>(std::floor(hi_x)));
+  const int r0 = std::max(0, static_cast<int>(std::ceil(lo_y)));
+  const int r1 = std::min(gray.rows - 1, static_cast<int>(std::floor(hi_y)));
+  for (int r = r0; r <= r1; ++r) {
+    const auto* row = gray.ptr<std::uint8_t>(r);
+    for (int c = c0; c <= c1; ++c) {
+      const Eigen::Vector2d p(c - e0.x(), r - e0.y());
+      const double lateral = (p.x() * across.y() - p.y() * across.x()) / det;
+      if (lateral < 0.0 || lateral > 1.0) continue;
+      const double t = p.dot(n);
+      const double inside = std::min(t + half, reach_in) - std::max(t - half, -reach_out);
+      if (inside <= 0.0) continue;
+      out->push_back({t, static_cast<double>(row[c]), inside / (2.0 * half)});
+    }
+  }
+}
+
+// The step as one pixel sees it: the part of the pixel's square (centre at offset t along the
+// unit normal n) beyond the edge at offset e. The square's area projects onto n as a trapezoid,
+// a box of |n.x| convolved with a box of |n.y|; this is its cumulative distribution.
+double stepSeen(double t, double e, const Eigen::Vector2d& n) {
+  const double hi = std::max(std::abs(n.x()), std::abs(n.y()));
+  const double lo = std::min(std::abs(n.x()), std::abs(n.y()));
+  const double x = e - t;  // the edge's offset from the pixel's centre
+  double below;            // part of the square before the edge
+  if (lo < 1e-6) {
+    below = std::clamp(x / hi + 0.5, 0.0, 1.0);
+  } else if (x <= -0.5 * (hi + lo)) {
+    below = 0.0;
+  } else if (x < -0.5 * (hi - lo)) {
+    below = (x + 0.5 * (hi + lo)) * (x + 0.5 * (hi + lo)) / (2.0 * hi * lo);
+  } else if (x <= 0.5 * (hi - lo)) {
+    below = lo / (2.0 * hi) + (x + 0.5 * (hi - lo)) / hi;
+  } else if (x < 0.5 * (hi + lo)) {
+    below = 1.0 - (0.5 * (hi + lo) - x) * (0.5 * (hi + lo) - x) / (2.0 * hi * lo);
+  } else {
+    below = 1.0;
+  }
+  return 1.0 - below;
+}
+
+// Its derivative with respect to e (negative: the step moves inwards, less of the pixel is past
+// it), by the trapezoid's density.
+double stepSeenSlope(double t, double e, const Eigen::Vector2d& n) {
+  const double hi = std::max(std::abs(n.x()), std::abs(n.y()));
+  const double lo = std::min(std::abs(n.x()), std::abs(n.y()));
+  const double x = std::abs(e - t);
+  if (x >= 0.5 * (hi + lo)) return 0.0;
+  if (x <= 0.5 * (hi - lo) || lo < 1e-6) return -1.0 / hi;
+  return -(0.5 * (hi + lo) - x) / (hi * lo);
+}
+
+// The edge offset in one window (see the header), given the levels; nullopt if not found.
+std::optional<double> edgeOffset(const std::vector<EdgePixel>& pixels, double white, double black,
+                                 double reach_out, double reach_in, const Eigen::Vector2d& n) {
+  double area = 0.0, total = 0.0;
+  for (const auto& p : pixels) {
+    area += p.weight * (white - p.value) / (white - black);
+    total += p.weight;
+  }
+  if (total <= 0.0) return std::nullopt;
+  // Continuous guess, then Newton on the piecewise-linear pixel sum.
+  double e = reach_in - area * (reach_in + reach_out) / total;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    double g = -area, slope = 0.0;
+    for (const auto& p : pixels) {
+      g += p.weight * stepSeen(p.t, e, n);
+      slope += p.weight * stepSeenSlope(p.t, e, n);
+    }
+    if (slope >= -1e-9) break;
+    const double step = -g / slope;
+    e += std::clamp(step, -0.5, 0.5);
+    if (std::abs(step) < 1e-4) break;
+  }
+  if (!(e > -0.9 * reach_out && e < 0.9 * reach_in)) return std::nullopt;
+  return e;
+}
+
+struct SideFit {
+  Eigen::Vector2d point;      // on the edge
   Eigen::Vector2d direction;  // unit
 };
 
-std::optional<Line> fitLine(const std::vector<Eigen::Vector2d>& points) {
-  if (points.size() < 3) return std::nullopt;
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const auto& p : points) mean += p;
-  mean /= static_cast<double>(points.size());
-  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
-  for (const auto& p : points) scatter += (p - mean) * (p - mean).transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
-  return Line{mean, solver.eigenvectors().col(1)};  // largest eigenvalue: along the line
+// One window across a side: its pixels, where it lies along the side, and its reaches.
+struct Window {
+  std::vector<EdgePixel> pixels;
+  double lateral = 0.0;  // centre's distance along the side from its start [px]
+  double reach_out = 0.0, reach_in = 0.0;
+};
+
+// The refined edge line of one side, from the current square (homography H).
+std::optional<SideFit> fitSide(const cv::Mat& gray, const TagHomography& H, const PatternSide& side,
+                               int width, const TagCells& black, const Eigen::Vector2d& centre,
+                               const CornerRefinementOptions& options) {
+  const Eigen::Vector2d a = H(side.start), b = H(side.start + width * side.along);
+  const Eigen::Vector2d along = (b - a).normalized();
+  Eigen::Vector2d n(-along.y(), along.x());
+  if (n.dot(centre - 0.5 * (a + b)) < 0.0) n = -n;  // inward
+  // Black cells from the edge inwards in the pattern's column c along this side (at most 3).
+  const auto depth = [&](int c) {
+    int k = 0;
+    while (k < 3) {
+      const Eigen::Vector2d cell = side.start + (c + 0.5) * side.along + (k + 0.5) * side.inward;
+      if (!black(static_cast<int>(std::floor(cell.y())), static_cast<int>(std::floor(cell.x())))) {
+        break;
+      }
+      ++k;
+    }
+    return k;
+  };
+  // Cells whose data cell behind the border is black first (and the corner cells, whose
+  // border column is black all along, where allowed); the others if there are none.
+  for (const bool behind_black : {true, false}) {
+    std::vector<Window> windows;
+    double white_sum = 0.0, white_weight = 0.0, black_sum = 0.0, black_weight = 0.0;
+    for (int j = 0; j < width; ++j) {
+      const bool corner = j == 0 || j == width - 1;
+      if (corner && !(behind_black && options.corner_cells)) continue;
+      if ((depth(j) >= 2) != behind_black) continue;
+      // Blur reaches across from the neighbouring columns too: the window goes deep only where
+      // they are as black.
+      int deep = depth(j);
+      if (j > 0) deep = std::min(deep, depth(j - 1));
+      if (j < width - 1) deep = std::min(deep, depth(j + 1));
+      const Eigen::Vector2d mid = side.start + (j + 0.5) * side.along;
+      const double cell_px = (H(mid + side.inward) - H(mid)).dot(n);
+      if (!(cell_px >= options.min_cell_px)) continue;  // foreshortened here
+      Window window;
+      // Inside: black for two cells (one if the data cell is white); outside: white for
+      // white_outside_cells. The window stops well short of either (3/4 of a cell inside, a
+      // quarter outside), at most kMaxWindowPx from the edge.
+      // Symmetric about the edge, so that the levels' blur cancels (see the header).
+      const double reach =
+          std::min({kMaxWindowPx, (deep >= 2 ? 1.25 : 0.75) * cell_px,
+                    std::clamp(options.white_outside_cells - 0.25, 0.5, 1.5) * cell_px});
+      window.reach_in = window.reach_out = reach;
+      // Corner cells: the half away from the corner (the ring's corner may be near).
+      const double from = corner ? (j == 0 ? 0.45 : 0.05) : 0.25;
+      const Eigen::Vector2d e0 = H(side.start + (j + from) * side.along);
+      const Eigen::Vector2d e1 = H(side.start + (j + from + 0.5) * side.along);
+      const Eigen::Vector2d across = (H(mid + side.inward) - H(mid)).normalized();
+      collectWindow(gray, e0, e1, n, across, window.reach_out, window.reach_in, &window.pixels);
+      if (window.pixels.size() < 4) continue;
+      // Levels from the outer halves of the window.
+      for (const auto& p : window.pixels) {
+        if (p.t <= -0.5 * reach) white_sum += p.weight * p.value, white_weight += p.weight;
+        if (p.t >= 0.5 * reach) black_sum += p.weight * p.value, black_weight += p.weight;
+      }
+      window.lateral = (0.5 * (e0 + e1) - a).dot(along);
+      windows.push_back(std::move(window));
+    }
+    if (windows.size() < 2 || white_weight <= 0.0 || black_weight <= 0.0) continue;
+    const double white = white_sum / white_weight, dark = black_sum / black_weight;
+    if (white - dark < options.min_contrast) return std::nullopt;
+    // Offsets per window, then a line e(s) = alpha + beta s along the side.
+    double s0 = 0, s1 = 0, s2 = 0, e_sum = 0, se_sum = 0;
+    for (const auto& window : windows) {
+      const auto e =
+          edgeOffset(window.pixels, white, dark, window.reach_out, window.reach_in, n);
+      if (!e) continue;
+      const double s = window.lateral;
+      s0 += 1.0, s1 += s, s2 += s * s, e_sum += *e, se_sum += s * *e;
+    }
+    if (s0 < 1.0) continue;
+    double alpha = e_sum / s0, beta = 0.0;
+    const double det = s0 * s2 - s1 * s1;
+    if (s0 >= 2.0 && det > 1e-6 * s0 * s0) {
+      beta = (s0 * se_sum - s1 * e_sum) / det;
+      alpha = (e_sum - beta * s1) / s0;
+    }
+    const double length = (b - a).norm();
+    const Eigen::Vector2d p0 = a + alpha * n;
+    const Eigen::Vector2d p1 = a + length * along + (alpha + beta * length) * n;
+    return SideFit{p0, (p1 - p0).normalized()};
+  }
+  return std::nullopt;
 }
 
-std::optional<Eigen::Vector2d> intersect(const Line& a, const Line& b) {
-  Eigen::Matrix2d A;
-  A << a.direction, -b.direction;
-  if (std::abs(A.determinant()) < 1e-6) return std::nullopt;
-  const Eigen::Vector2d t = A.inverse() * (b.point - a.point);
-  return a.point + t[0] * a.direction;
+// The corners from the four sides' edges, `passes` times; false if a side cannot be measured
+// or a corner moves more than max_shift_px.
+bool refineByEdges(const cv::Mat& gray, int width, const TagCells& black,
+                   const CornerRefinementOptions& options, std::array<Eigen::Vector2d, 4>* square) {
+  const std::array<Eigen::Vector2d, 4> initial = *square;
+  const auto sides = patternSides(width);
+  for (int pass = 0; pass < options.passes; ++pass) {
+    const TagHomography H(*square, width);
+    if (!H.valid()) return false;
+    const Eigen::Vector2d centre = H(0.5 * width, 0.5 * width);
+    std::array<SideFit, 4> lines;
+    for (int k = 0; k < 4; ++k) {
+      const auto line = fitSide(gray, H, sides[k], width, black, centre, options);
+      if (!line) return false;
+      lines[k] = *line;
+    }
+    for (int k = 0; k < 4; ++k) {
+      // Corner k of the square joins side k - 1 (ending at it) and side k (starting at it).
+      const SideFit& p = lines[(k + 3) % 4];
+      const SideFit& q = lines[k];
+      const double det = cross(p.direction, q.direction);
+      if (std::abs(det) < 1e-3) return false;
+      (*square)[k] = p.point + cross(q.point - p.point, q.direction) / det * p.direction;
+      if (!(((*square)[k] - initial[k]).norm() <= options.max_shift_px)) return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace
 
-bool refineTagCorners(const cv::Mat& gray, TagObservation* tag,
+bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
                       const CornerRefinementOptions& options) {
-  if (gray.empty() || gray.type() != CV_8UC1) return false;
-  const auto& corners = tag->corners_px;
-  const Eigen::Vector2d centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
-  for (int i = 0; i < 4; ++i) {
-    if ((corners[(i + 1) % 4] - corners[i]).norm() / options.width_at_border <
-        options.min_cell_px) {
-      return false;
+  if (gray.empty() || gray.type() != CV_8UC1 || width < 3) return false;
+  // Upright top-left, top-right, bottom-right, bottom-left (mvis's order is bottom-left first).
+  const auto& c = tag->corners_px;
+  std::array<Eigen::Vector2d, 4> square{c[3], c[2], c[1], c[0]};
+  const std::array<Eigen::Vector2d, 4> initial = square;
+  const bool edges = refineByEdges(gray, width, black, options, &square);
+  if (!edges) square = initial;
+  bool any_junction = false;
+  if (options.junctions) {
+    // Where a black square touches the corner (Kalibr's AprilGrid), the corner is the centre
+    // of the X-junction they make: found from the junction's symmetry, which gamma and blur keep
+    // (junction_refinement.h), where edges are moved by gamma.
+    const TagHomography H(square, width);
+    const double w = width;
+    const std::array<Eigen::Vector2d, 4> pattern{Eigen::Vector2d(0, 0), Eigen::Vector2d(w, 0),
+                                                 Eigen::Vector2d(w, w), Eigen::Vector2d(0, w)};
+    const auto level = [&](const Eigen::Vector2d& p) {
+      const Eigen::Vector2d px = H(p);
+      const int r = std::clamp(static_cast<int>(std::lround(px.y())), 0, gray.rows - 1);
+      const int c = std::clamp(static_cast<int>(std::lround(px.x())), 0, gray.cols - 1);
+      return static_cast<double>(gray.at<std::uint8_t>(r, c));
+    };
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d next = (pattern[(k + 1) % 4] - pattern[k]) / w;  // unit, in cells
+      const Eigen::Vector2d prev = (pattern[(k + 3) % 4] - pattern[k]) / w;
+      const double dark = std::max(level(pattern[k] + next + prev),   // the tag's border
+                                   level(pattern[k] - next - prev));  // the square
+      const double light = std::min(level(pattern[k] + next - prev), level(pattern[k] - next + prev));
+      if (light - dark < options.min_contrast) continue;  // no square here: keep the edges' corner
+      const double cell_px = std::min((H(pattern[k] + next) - square[k]).norm(),
+                                      (H(pattern[k] + prev) - square[k]).norm());
+      const auto centre = refineJunction(gray, square[k], std::clamp(1.25 * cell_px, 2.0, 8.0),
+                                         options.max_shift_px);
+      if (centre) square[k] = *centre, any_junction = true;
     }
   }
-  std::array<Line, 4> sides;
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d& a = corners[i];
-    const Eigen::Vector2d& b = corners[(i + 1) % 4];
-    const double length = (b - a).norm();
-    if (length < 4.0) return false;
-    const Eigen::Vector2d along = (b - a) / length;
-    Eigen::Vector2d normal(-along.y(), along.x());
-    if (normal.dot(0.5 * (a + b) - centre) < 0.0) normal = -normal;  // pointing out of the tag
-    // Stay within the single cell of border on either side of the edge.
-    const double cell_px = length / options.width_at_border;
-    const double reach = std::clamp(0.7 * cell_px, 1.0, 4.0);
-    const int count = std::max(5, static_cast<int>(length * (1.0 - 2.0 * options.edge_margin)));
-    std::vector<Eigen::Vector2d> points;
-    points.reserve(count);
-    for (int k = 0; k < count; ++k) {
-      const double s = options.edge_margin + (1.0 - 2.0 * options.edge_margin) * (k + 0.5) / count;
-      const Eigen::Vector2d p = a + s * (b - a);
-      const auto offset = edgeOffset(gray, p, normal, reach, options.min_contrast);
-      if (offset) points.push_back(p + *offset * normal);
-    }
-    const auto line = fitLine(points);
-    if (!line) return false;
-    sides[i] = *line;
-  }
-  std::array<Eigen::Vector2d, 4> refined;
-  for (int i = 0; i < 4; ++i) {
-    // Corner i joins side i - 1 (ending at it) and side i (starting at it).
-    const auto corner = intersect(sides[(i + 3) % 4], sides[i]);
-    if (!corner || (*corner - corners[i]).norm() > options.max_shift_px) return false;
-    refined[i] = *corner;
-  }
-  tag->corners_px = refined;
+  if (!edges && !any_junction) return false;
+  tag->corners_px = {square[3], square[2], square[1], square[0]};
   return true;
 }
 

@@ -13,8 +13,14 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 
 #include "mvis/frontend/corner_refinement.h"
+#include "tag_codebook.h"
+#include "tag_quads.h"
+#include "tag_reading.h"
+
+#include <opencv2/imgproc.hpp>
 
 namespace mvis {
 namespace {
@@ -62,7 +68,8 @@ StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count) {
   FamilyHandle handle;
   handle.functions = it->second;
   handle.family = handle.functions.create();
-  if (count < 0 || static_cast<std::uint32_t>(count) > handle.family->ncodes) {
+  if (count < 0) count = static_cast<int>(handle.family->ncodes);
+  if (static_cast<std::uint32_t>(count) > handle.family->ncodes) {
     return Status::Error("tag family " + family + " has only " +
                          std::to_string(handle.family->ncodes) + " tags, " + std::to_string(count) +
                          " wanted");
@@ -85,9 +92,16 @@ StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count) {
 }
 
 struct TagDetector::Impl {
+  std::optional<TagCodebook> codebook;  // the family's words, when it has them
+  bool own_engine = false;              // mvis's quads and decoder; else libapriltag's
   FamilyFunctions functions{};
   apriltag_family_t* family = nullptr;
   apriltag_detector_t* detector = nullptr;
+
+  // Tags found, each with its border width in cells (see tag_codebook.h).
+  using Found = std::vector<std::pair<TagObservation, int>>;
+  Found detectOwn(const cv::Mat& gray, const TagDetectorOptions& options) const;
+  Found detectLibrary(const cv::Mat& gray) const;
 
   ~Impl() {
     if (detector) apriltag_detector_destroy(detector);
@@ -100,6 +114,8 @@ std::string TagDetectorOptions::validate() const {
   if (!(decimate >= 1.0)) return "decimate must be >= 1";
   if (threads < 1) return "threads must be >= 1";
   if (max_hamming < 0 || max_hamming > 2) return "max_hamming must be 0, 1 or 2";
+  if (!(min_contrast >= 1.0 && min_contrast <= 255.0)) return "min_contrast must be in [1, 255]";
+  if (!(tag_spacing >= 0.0 && tag_spacing < 10.0)) return "tag_spacing must be in [0, 10)";
   return "";
 }
 
@@ -108,6 +124,10 @@ StatusOr<std::unique_ptr<TagDetector>> TagDetector::create(const TagDetectorOpti
     return Status::Error("tag detector: " + problem);
   }
   auto impl = std::make_unique<Impl>();
+  if (auto codebook = TagCodebook::create(options.family); codebook.ok()) {
+    impl->codebook = std::move(codebook).value();
+  }
+  impl->own_engine = impl->codebook.has_value() && !options.use_libapriltag;
   impl->functions = families().at(options.family);
   impl->family = impl->functions.create();
   impl->detector = apriltag_detector_create();
@@ -131,10 +151,115 @@ TagDetector::~TagDetector() = default;
 StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) const {
   if (gray.empty() || gray.cols < 1 || gray.rows < 1) return Status::Error("empty image");
   if (gray.type() != CV_8UC1) return Status::Error("expected an 8-bit single-channel image");
+  Impl::Found found =
+      impl_->own_engine ? impl_->detectOwn(gray, options_) : impl_->detectLibrary(gray);
+  std::vector<TagObservation> tags;
+  tags.reserve(found.size());
+  for (auto& [tag, border] : found) {
+    if (options_.refine_corners && impl_->codebook) {
+      const TagCodebook& book = *impl_->codebook;
+      const int id = tag.tag_id, b = border;
+      const int width = book.dataWidth() + 2 * border;
+      CornerRefinementOptions refinement;
+      // The board's gap is white but for Kalibr's squares at the corners; a lone tag has its
+      // one-cell ring.
+      refinement.white_outside_cells = std::max(1.0, options_.tag_spacing * width);
+      refinement.corner_cells = border == 1;
+      refinement.junctions = border == 2;
+      refinement.max_shift_px = 2.5;  // from the quad finder's corners, good to ~1 px
+      // The junctions need only a start within a pixel; edges alone take three passes under heavy blur.
+      refinement.passes = refinement.junctions ? 1 : 3;
+      // Keeps the found corners if it cannot refine them.
+      refineTagCorners(gray, &tag, width,
+                       [&book, id, b](int row, int col) { return book.black(id, b, row, col); },
+                       refinement);
+    }
+    tags.push_back(tag);
+  }
+  return tags;
+}
+
+TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
+                                                      const TagDetectorOptions& options) const {
+  QuadFinderOptions quad_options;
+  quad_options.min_contrast = options.min_contrast;
+  std::vector<Quad> quads;
+  if (options.decimate > 1.0) {
+    cv::Mat small;
+    cv::resize(gray, small, cv::Size(), 1.0 / options.decimate, 1.0 / options.decimate,
+               cv::INTER_AREA);
+    const double fx = static_cast<double>(gray.cols) / small.cols;
+    const double fy = static_cast<double>(gray.rows) / small.rows;
+    quad_options.min_side_px = std::max(4, static_cast<int>(quad_options.min_side_px / fx));
+    quads = findQuads(small, quad_options);
+    for (auto& quad : quads) {
+      for (auto& q : quad) q = Eigen::Vector2d((q.x() + 0.5) * fx - 0.5, (q.y() + 0.5) * fy - 0.5);
+    }
+  } else {
+    quads = findQuads(gray, quad_options);
+  }
+  TagReadingOptions reading;
+  reading.max_hamming = options.max_hamming;
+  reading.min_contrast = options.min_contrast;
+  Found tags;
+  CornerRefinementOptions sharpen;
+  sharpen.passes = 1;
+  sharpen.min_cell_px = 1.2;
+  sharpen.max_shift_px = 2.5;
+  // libapriltag's border of one cell, or Kalibr's of two: whichever reads better.
+  const auto read = [&](const Quad& quad, int* border) {
+    auto tag = readTag(gray, quad, *codebook, 2, reading);
+    *border = 2;
+    if (!tag || tag->hamming > 0) {
+      if (auto plain = readTag(gray, quad, *codebook, 1, reading);
+          plain && (!tag || plain->hamming < tag->hamming)) {
+        tag = plain;
+        *border = 1;
+      }
+    }
+    return tag;
+  };
+  for (Quad quad : quads) {
+    int border = 1;
+    auto tag = read(quad, &border);
+    // Sharper corners, then again: small tags' cells are missed by a rough quad. The edges as if
+    // the tag were solid black inside (true of Kalibr's two-cell border, nearly so of one
+    // cell), then also the junctions where Kalibr's squares touch the corners.
+    for (const bool junctions : {false, true}) {
+      if (tag) break;
+      TagObservation solid;
+      solid.corners_px = {quad[3], quad[2], quad[1], quad[0]};
+      sharpen.junctions = junctions;
+      if (!refineTagCorners(gray, &solid, 10, [](int, int) { return true; }, sharpen)) continue;
+      tag = read({solid.corners_px[3], solid.corners_px[2], solid.corners_px[1],
+                  solid.corners_px[0]},
+                 &border);
+    }
+    if (!tag) continue;
+    // One id once: a second reading of the same tag (e.g. from a split component) is dropped,
+    // the better one kept; two far apart are both kept for the checks to refuse.
+    const Eigen::Vector2d centre = 0.25 * (tag->corners_px[0] + tag->corners_px[1] +
+                                           tag->corners_px[2] + tag->corners_px[3]);
+    const double size = (tag->corners_px[2] - tag->corners_px[0]).norm();
+    bool duplicate = false;
+    for (auto& [other, other_border] : tags) {
+      const Eigen::Vector2d other_centre = 0.25 * (other.corners_px[0] + other.corners_px[1] +
+                                                   other.corners_px[2] + other.corners_px[3]);
+      if (other.tag_id == tag->tag_id && (other_centre - centre).norm() < 0.5 * size) {
+        if (tag->hamming < other.hamming) other = *tag, other_border = border;
+        duplicate = true;
+      }
+    }
+    if (!duplicate) tags.emplace_back(*tag, border);
+  }
+  return tags;
+}
+
+TagDetector::Impl::Found TagDetector::Impl::detectLibrary(const cv::Mat& gray) const {
   image_u8_t image{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]),
                    const_cast<uint8_t*>(gray.ptr<uint8_t>(0))};
-  zarray_t* found = apriltag_detector_detect(impl_->detector, &image);
-  std::vector<TagObservation> tags;
+  zarray_t* found = apriltag_detector_detect(detector, &image);
+  Found tags;
   tags.reserve(zarray_size(found));
   for (int i = 0; i < zarray_size(found); ++i) {
     apriltag_detection_t* det = nullptr;
@@ -146,12 +271,7 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
       tag.corners_px[c] =
           Eigen::Vector2d(det->p[c][0], det->p[c][1]) + Eigen::Vector2d::Constant(kLibraryToMvisPx);
     }
-    if (options_.refine_corners) {
-      CornerRefinementOptions refinement;
-      refinement.width_at_border = impl_->family->width_at_border;
-      refineTagCorners(gray, &tag, refinement);  // keeps the library's corners if it cannot
-    }
-    tags.push_back(tag);
+    tags.emplace_back(tag, 1);
   }
   apriltag_detections_destroy(found);
   return tags;

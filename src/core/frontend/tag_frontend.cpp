@@ -11,6 +11,7 @@ StatusOr<std::unique_ptr<TagFrontend>> TagFrontend::create(const Rig& rig,
                                                            TagFrontendOptions options) {
   if (rig.target) {
     options.detector.family = rig.target->tag_family;
+    options.detector.tag_spacing = rig.target->tag_spacing;
     options.checks.num_board_tags = rig.target->numTags();
   }
   if (const std::string problem = options.checks.validate(); !problem.empty()) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
 
@@ -10,14 +11,60 @@
 #include "mvis/frontend/tag_detector.h"
 
 namespace mvis {
-StatusOr<std::unique_ptr<TagBoardRenderer>> TagBoardRenderer::create(const AprilGrid& grid) {
+namespace {
+
+// Optics after the pixel-area average: Gaussian blur, then noise (seeded per row) and 8 bits.
+void blurAndQuantize(const cv::Mat& clean, const RenderOptions& options, cv::Mat* image) {
+  cv::Mat blurred;
+  cv::GaussianBlur(clean, blurred, cv::Size(), options.blur_sigma, options.blur_sigma,
+                   cv::BORDER_REPLICATE);
+  std::normal_distribution<double> noise(0.0, options.noise_sigma);
+  for (int r = 0; r < blurred.rows; ++r) {
+    std::mt19937 rng(options.seed * 7919u + static_cast<std::uint32_t>(r));
+    const float* in = blurred.ptr<float>(r);
+    auto* out = image->ptr<std::uint8_t>(r);
+    for (int c = 0; c < blurred.cols; ++c) {
+      double value = in[c];
+      if (options.noise_sigma > 0.0) value += noise(rng);
+      out[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+    }
+  }
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<TagBoardRenderer>> TagBoardRenderer::create(const AprilGrid& grid,
+                                                                      BoardKind kind) {
   std::unique_ptr<TagBoardRenderer> renderer(new TagBoardRenderer());
   renderer->grid_ = grid;
+  renderer->kind_ = kind;
   auto patterns = tagFamilyPatterns(grid.tag_family, grid.numTags());
   if (!patterns.ok()) return patterns.status();
-  renderer->total_width_ = patterns.value().total_width;
-  renderer->width_at_border_ = patterns.value().width_at_border;
-  renderer->patterns_ = std::move(patterns.value().cells);
+  int total = patterns.value().total_width;
+  int at_border = patterns.value().width_at_border;
+  auto cells = std::move(patterns.value().cells);
+  if (kind == BoardKind::kKalibrGrid) {
+    if (total != at_border + 2) {
+      return Status::Error("tag family " + grid.tag_family + " has no plain border to widen");
+    }
+    // One more black ring inside the white one: the data keeps its cells, the square grows.
+    const int wide = total + 2;
+    for (auto& pattern : cells) {
+      std::vector<std::uint8_t> widened(wide * wide, 255);
+      for (int r = 1; r < wide - 1; ++r) {
+        for (int c = 1; c < wide - 1; ++c) {
+          const bool inner = r >= 2 && c >= 2 && r < wide - 2 && c < wide - 2;
+          widened[r * wide + c] = inner ? pattern[(r - 1) * total + (c - 1)] : 0;
+        }
+      }
+      pattern = std::move(widened);
+    }
+    total = wide;
+    at_border += 2;
+  }
+  renderer->total_width_ = total;
+  renderer->width_at_border_ = at_border;
+  renderer->patterns_ = std::move(cells);
   return renderer;
 }
 
@@ -34,6 +81,14 @@ double TagBoardRenderer::reflectance(double x, double y, double margin_tags) con
   // the detected square on each side.
   const double cell = size / width_at_border_;
   const double ring = 0.5 * (total_width_ - width_at_border_) * cell;
+  if (kind_ == BoardKind::kKalibrGrid) {
+    // The squares fill every crossing of the gaps, [k * pitch - gap, k * pitch] on both axes.
+    const double gap = grid_.tag_spacing * size;
+    const double kx = std::floor((x + gap) / pitch), ky = std::floor((y + gap) / pitch);
+    const bool in_x = x >= kx * pitch - gap && x < kx * pitch && kx >= 0 && kx <= grid_.tag_cols;
+    const bool in_y = y >= ky * pitch - gap && y < ky * pitch && ky >= 0 && ky <= grid_.tag_rows;
+    if (in_x && in_y) return 0.0;
+  }
   const int col = static_cast<int>(std::floor((x + ring) / pitch));
   const int row = static_cast<int>(std::floor((y + ring) / pitch));
   if (col < 0 || row < 0 || col >= grid_.tag_cols || row >= grid_.tag_rows) return 1.0;
@@ -51,6 +106,8 @@ double TagBoardRenderer::reflectance(double x, double y, double margin_tags) con
 cv::Mat TagBoardRenderer::render(int width, int height, const PixelToBoard& pixel_to_board,
                                  const RenderOptions& options) const {
   cv::Mat image(height, width, CV_8UC1);
+  cv::Mat clean;  // area averages before blur, with blur only
+  if (options.blur_sigma > 0.0) clean.create(height, width, CV_32FC1);
   const int n = std::max(1, options.supersample);
   std::mt19937 rng(options.seed);
   std::normal_distribution<double> noise(0.0, options.noise_sigma);
@@ -76,10 +133,15 @@ cv::Mat TagBoardRenderer::render(int width, int height, const PixelToBoard& pixe
         }
       }
       double value = sum / (n * n);
+      if (!clean.empty()) {
+        clean.at<float>(r, c) = static_cast<float>(value);
+        continue;
+      }
       if (options.noise_sigma > 0.0) value += noise(rng);
       row[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
     }
   }
+  if (!clean.empty()) blurAndQuantize(clean, options, &image);
   return image;
 }
 
@@ -120,6 +182,8 @@ CameraRays::CameraRays(const Camera& camera, int supersample, std::uint32_t seed
 cv::Mat TagBoardRenderer::render(const CameraRays& rays, const SE3& T_G_C,
                                  const RenderOptions& options, int threads) const {
   cv::Mat image(rays.height(), rays.width(), CV_8UC1);
+  cv::Mat clean;  // area averages before blur, with blur only
+  if (options.blur_sigma > 0.0) clean.create(rays.height(), rays.width(), CV_32FC1);
   const Eigen::Matrix3d R = T_G_C.rotation();
   const Eigen::Vector3d o = T_G_C.p;
   const int samples = rays.samplesPerPixel();
@@ -149,6 +213,10 @@ cv::Mat TagBoardRenderer::render(const CameraRays& rays, const SE3& T_G_C,
           sum += value;
         }
         double value = sum / samples;
+        if (!clean.empty()) {
+          clean.at<float>(r, c) = static_cast<float>(value);
+          continue;
+        }
         if (options.noise_sigma > 0.0) value += noise(rng);
         row[c] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
       }
@@ -163,6 +231,7 @@ cv::Mat TagBoardRenderer::render(const CameraRays& rays, const SE3& T_G_C,
   }
   renderRows(0, std::min(rays.height(), rows_per_part));
   for (auto& worker : workers) worker.join();
+  if (!clean.empty()) blurAndQuantize(clean, options, &image);
   return image;
 }
 

@@ -1,0 +1,125 @@
+#include "tag_reading.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
+
+#include "tag_homography.h"
+
+namespace mvis {
+namespace {
+
+constexpr double kSharpening = 0.25;
+
+// Bilinear intensity at (u, v) in mvis's pixel convention; NaN outside the image.
+double sample(const cv::Mat& gray, const Eigen::Vector2d& p) {
+  const int c = static_cast<int>(std::floor(p.x()));
+  const int r = static_cast<int>(std::floor(p.y()));
+  if (c < 0 || r < 0 || c + 1 >= gray.cols || r + 1 >= gray.rows) return std::nan("");
+  const double a = p.x() - c, b = p.y() - r;
+  const auto* row0 = gray.ptr<std::uint8_t>(r);
+  const auto* row1 = gray.ptr<std::uint8_t>(r + 1);
+  return (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) +
+         b * ((1 - a) * row1[c] + a * row1[c + 1]);
+}
+
+// Least-squares plane v = c0 + c1 x + c2 y through samples (x, y, v).
+Eigen::Vector3d fitPlane(const std::vector<Eigen::Vector3d>& samples) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& s : samples) {
+    const Eigen::Vector3d row(1.0, s.x(), s.y());
+    A += row * row.transpose();
+    b += row * s.z();
+  }
+  return A.ldlt().solve(b);
+}
+
+}  // namespace
+
+std::optional<TagObservation> readTag(const cv::Mat& gray, const Quad& quad,
+                                      const TagCodebook& codebook, int border,
+                                      const TagReadingOptions& options) {
+  const int d = codebook.dataWidth();
+  const int w = d + 2 * border;
+  const TagHomography H(quad, w);
+  if (!H.valid()) return std::nullopt;
+  // The mean of four samples around a cell's centre (x, y in cells).
+  const auto cellValue = [&](double x, double y) {
+    return 0.25 * (sample(gray, H(x - 0.2, y - 0.2)) + sample(gray, H(x + 0.2, y - 0.2)) +
+                   sample(gray, H(x - 0.2, y + 0.2)) + sample(gray, H(x + 0.2, y + 0.2)));
+  };
+  // The square and the ring around it, (W + 2) x (W + 2) cells; cell (r, c) of the square is
+  // grid[(r + 1) * (W + 2) + c + 1].
+  const int g = w + 2;
+  std::vector<double> grid(g * g);
+  for (int r = -1; r <= w; ++r) {
+    for (int c = -1; c <= w; ++c) {
+      const double v = cellValue(c + 0.5, r + 0.5);
+      if (std::isnan(v)) return std::nullopt;
+      grid[(r + 1) * g + c + 1] = v;
+    }
+  }
+  // Blur makes a lone white cell among black ones grey (and the reverse): sharpened by a
+  // Laplacian over the four neighbouring cells, as libapriltag does.
+  std::vector<double> cells(w * w);
+  for (int r = 0; r < w; ++r) {
+    for (int c = 0; c < w; ++c) {
+      const double* v = &grid[(r + 1) * g + c + 1];
+      cells[r * w + c] = v[0] + kSharpening * (4.0 * v[0] - v[-1] - v[1] - v[-g] - v[g]);
+    }
+  }
+  std::vector<Eigen::Vector3d> dark, light;
+  for (int r = 0; r < w; ++r) {
+    for (int c = 0; c < w; ++c) {
+      if (r < border || c < border || r >= w - border || c >= w - border) {
+        dark.emplace_back(c + 0.5, r + 0.5, grid[(r + 1) * g + c + 1]);
+      }
+    }
+  }
+  for (int k = 1; k < w - 1; ++k) {
+    light.emplace_back(k + 0.5, -0.5, grid[k + 1]);
+    light.emplace_back(k + 0.5, w + 0.5, grid[(w + 1) * g + k + 1]);
+    light.emplace_back(-0.5, k + 0.5, grid[(k + 1) * g]);
+    light.emplace_back(w + 0.5, k + 0.5, grid[(k + 1) * g + w + 1]);
+  }
+  const Eigen::Vector3d black = fitPlane(dark), white = fitPlane(light);
+  const auto threshold = [&](double x, double y) {
+    return 0.5 * (black.dot(Eigen::Vector3d(1, x, y)) + white.dot(Eigen::Vector3d(1, x, y)));
+  };
+  const double contrast =
+      (white - black).dot(Eigen::Vector3d(1.0, 0.5 * w, 0.5 * w));  // at the centre
+  if (!(contrast >= options.min_contrast)) return std::nullopt;
+  int dark_ring = 0;
+  for (const auto& s : light) dark_ring += s.z() < threshold(s.x(), s.y());
+  if (4 * dark_ring > static_cast<int>(light.size())) return std::nullopt;
+  int white_border = 0;
+  for (int r = 0; r < w; ++r) {
+    for (int c = 0; c < w; ++c) {
+      if (r < border || c < border || r >= w - border || c >= w - border) {
+        white_border += cells[r * w + c] >= threshold(c + 0.5, r + 0.5);
+      }
+    }
+  }
+  if (white_border > options.max_hamming) return std::nullopt;
+  std::uint64_t word = 0;
+  for (int r = 0; r < d; ++r) {
+    for (int c = 0; c < d; ++c) {
+      const int row = r + border, col = c + border;
+      if (cells[row * w + col] < threshold(col + 0.5, row + 0.5)) {
+        word |= std::uint64_t{1} << (r * d + c);
+      }
+    }
+  }
+  const auto decoded = codebook.decode(word, options.max_hamming - white_border);
+  if (!decoded) return std::nullopt;
+  TagObservation tag;
+  tag.tag_id = decoded->id;
+  tag.hamming = decoded->hamming + white_border;
+  // The upright top-left is quad corner `rotation`; mvis's order starts at the bottom-left.
+  const int s = decoded->rotation;
+  for (int k = 0; k < 4; ++k) tag.corners_px[k] = quad[(s + 3 - k) % 4];
+  return tag;
+}
+
+}  // namespace mvis

@@ -1,0 +1,123 @@
+// Corner accuracy of the tag detector on boards rendered by two independent renderers (mvis's
+// and a texture renderer built from OpenCV, board_images.h), both kinds of board (plain tags and
+// Kalibr AprilGrids), blur from none to 1.5 px, noise sigma 2 on a contrast of 190.
+//
+// The bounds are the detector's contract: no systematic outward or inward error beyond 0.01 px
+// (the mean over the 864 corners of a case: its noise is ~0.06 / sqrt(864) = 0.002 px, so
+// 0.01 px is a bias, not noise) and RMS <= 0.08 px. One case falls short and is held to what it
+// does, so that it cannot get worse unnoticed: plain tags (a border one cell wide) under the
+// heaviest blur, sigma 1.5 px on cells of ~5.5 px, where the data cells' blur reaches the
+// outer edge: bias 0.012-0.019 px, RMS 0.10 px (Kalibr's boards, two-cell borders and corners
+// at junctions, stay within the contract there).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "board_images.h"
+#include "mvis/frontend/tag_observation.h"
+#include "mvis/frontend/tag_detector.h"
+
+namespace mvis {
+namespace {
+
+struct Errors {
+  int tags = 0, wrong_ids = 0, corners = 0;
+  double outward_sum = 0.0, sum_sq = 0.0, max = 0.0;
+  double outward() const { return corners ? outward_sum / corners : 0.0; }
+  double rms() const { return corners ? std::sqrt(sum_sq / corners) : 0.0; }
+};
+
+void measure(const test::BoardView& view, const std::vector<TagObservation>& tags, Errors* e) {
+  for (const auto& tag : tags) {
+    if (tag.tag_id < 0 || tag.tag_id >= view.grid.numTags()) {
+      ++e->wrong_ids;
+      continue;
+    }
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (int c = 0; c < 4; ++c) centre += 0.25 * view.truth(tag.tag_id, c);
+    ++e->tags;
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Vector2d truth = view.truth(tag.tag_id, c);
+      const Eigen::Vector2d error = tag.corners_px[c] - truth;
+      if (error.norm() > 5.0) {  // a wrong id lands a tag pitch away
+        ++e->wrong_ids;
+        break;
+      }
+      e->outward_sum += error.dot((truth - centre).normalized());
+      e->sum_sq += error.squaredNorm();
+      e->max = std::max(e->max, error.norm());
+      ++e->corners;
+    }
+  }
+}
+
+const std::vector<SE3>& views() {
+  static const std::vector<SE3> kViews = {
+      test::viewOfBoard(0.0, 0.0, 0.9),   test::viewOfBoard(0.35, 0.05, 0.9),
+      test::viewOfBoard(0.05, -0.45, 1.0), test::viewOfBoard(0.3, 0.3, 0.8),
+      test::viewOfBoard(-0.45, 0.2, 0.95), test::viewOfBoard(0.12, -0.08, 0.85),
+  };
+  return kViews;
+}
+
+struct Case {
+  test::Renderer renderer;
+  BoardKind kind;
+  double blur;
+};
+
+class CornerAccuracy : public ::testing::TestWithParam<Case> {};
+
+TEST_P(CornerAccuracy, IsUnbiasedAndPrecise) {
+  const Case c = GetParam();
+  TagDetectorOptions detector_options;
+  detector_options.tag_spacing = 0.3;
+  auto detector = TagDetector::create(detector_options);
+  ASSERT_TRUE(detector.ok());
+  Errors e;
+  std::uint32_t seed = 1;
+  for (const SE3& T : views()) {
+    test::ViewOptions options;
+    options.renderer = c.renderer;
+    options.kind = c.kind;
+    options.blur_sigma = c.blur;
+    options.seed = seed++;
+    const test::BoardView view = test::renderBoard(T, options);
+    const auto found = detector.value()->detect(view.image);
+    ASSERT_TRUE(found.ok());
+    const int before = e.tags;
+    measure(view, found.value(), &e);
+    std::string missing;
+    for (int id = 0; id < view.grid.numTags(); ++id) {
+      bool seen = false;
+      for (const auto& tag : found.value()) seen = seen || tag.tag_id == id;
+      if (!seen) missing += " " + std::to_string(id);
+    }
+    EXPECT_EQ(e.tags - before, view.grid.numTags()) << "view " << seed - 1 << " misses" << missing;
+  }
+  std::printf("%-7s %-6s blur %.1f: %d tags, outward %+.4f px, RMS %.4f px, max %.3f px\n",
+              c.renderer == test::Renderer::kMvis ? "mvis" : "texture",
+              c.kind == BoardKind::kPlain ? "plain" : "kalibr", c.blur, e.tags, e.outward(),
+              e.rms(), e.max);
+  EXPECT_EQ(e.wrong_ids, 0);
+  const bool thin_and_blurred = c.kind == BoardKind::kPlain && c.blur > 1.2;
+  EXPECT_LT(std::abs(e.outward()), thin_and_blurred ? 0.025 : 0.01);
+  EXPECT_LT(e.rms(), thin_and_blurred ? 0.12 : 0.08);
+}
+
+std::vector<Case> cases() {
+  std::vector<Case> all;
+  for (const auto renderer : {test::Renderer::kMvis, test::Renderer::kTexture}) {
+    for (const auto kind : {BoardKind::kPlain, BoardKind::kKalibrGrid}) {
+      for (const double blur : {0.0, 0.5, 1.0, 1.5}) all.push_back({renderer, kind, blur});
+    }
+  }
+  return all;
+}
+
+INSTANTIATE_TEST_SUITE_P(Renderers, CornerAccuracy, ::testing::ValuesIn(cases()));
+
+}  // namespace
+}  // namespace mvis
+
