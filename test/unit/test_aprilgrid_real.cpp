@@ -8,6 +8,7 @@
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
@@ -135,6 +136,41 @@ TEST(RealAprilGrid, RealSenseFramesAgreeWithAnotherDetector) {
   EXPECT_GE(matched, listed - 4);
   EXPECT_LT(rms, 0.3);
   EXPECT_LT(std::abs(outward / corners), 0.05);
+}
+
+}  // namespace
+}  // namespace mvis
+
+namespace mvis {
+namespace {
+
+// What cameras and files give: the same detections from 16-bit (10 bits used, as many cameras
+// store them) and from colour.
+TEST(RealAprilGrid, SixteenBitAndColourImagesGiveTheSameTags) {
+  const auto detector = gridDetector();
+  const cv::Mat gray =
+      cv::imread(kData + "cam0_1403709395937837056.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(gray.empty());
+  cv::Mat ten_bits, colour;
+  gray.convertTo(ten_bits, CV_16U, 4.0);  // 0..1020
+  cv::cvtColor(gray, colour, cv::COLOR_GRAY2BGR);
+  const auto reference = detector->detect(gray).value();
+  for (const cv::Mat& image : {ten_bits, colour}) {
+    const auto converted = grayForDetection(image);
+    ASSERT_TRUE(converted.ok()) << converted.status().message();
+    const auto found = detector->detect(converted.value()).value();
+    ASSERT_EQ(found.size(), reference.size());
+    for (std::size_t i = 0; i < found.size(); ++i) {
+      EXPECT_EQ(found[i].tag_id, reference[i].tag_id);
+      // 16 bits scaled by 255 / 1020 round differently from the original: corners move little.
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_LT((found[i].corners_px[c] - reference[i].corners_px[c]).norm(), 0.05);
+      }
+    }
+  }
+  EXPECT_EQ(grayForDetection(cv::Mat(4, 4, CV_32FC1)).status().message(),
+            "unsupported image type: 1 channels of other bits (expected 8 or 16 bits, 1, 3 or 4 "
+            "channels)");
 }
 
 }  // namespace

@@ -4,11 +4,11 @@
 //
 // The bounds are the detector's contract: no systematic outward or inward error beyond 0.01 px
 // (the mean over the 864 corners of a case: its noise is ~0.06 / sqrt(864) = 0.002 px, so
-// 0.01 px is a bias, not noise) and RMS <= 0.08 px. One case falls short and is held to what it
-// does, so that it cannot get worse unnoticed: plain tags (a border one cell wide) under the
-// heaviest blur, sigma 1.5 px on cells of ~5.5 px, where the data cells' blur reaches the
-// outer edge: bias 0.012-0.019 px, RMS 0.10 px (Kalibr's boards, two-cell borders and corners
-// at junctions, stay within the contract there).
+// 0.01 px is a bias, not noise) and RMS <= 0.08 px. One case falls short on RMS and is held to
+// what it does, so that it cannot get worse unnoticed: plain tags (a border one cell wide)
+// under the heaviest blur, sigma 1.5 px on cells of ~5.5 px, where the data cells' blur reaches
+// the outer edge: RMS 0.10 px, its bias still within 0.008 px (Kalibr's boards, two-cell
+// borders and corners at junctions, stay within the contract there).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -102,7 +102,7 @@ TEST_P(CornerAccuracy, IsUnbiasedAndPrecise) {
               e.rms(), e.max);
   EXPECT_EQ(e.wrong_ids, 0);
   const bool thin_and_blurred = c.kind == BoardKind::kPlain && c.blur > 1.2;
-  EXPECT_LT(std::abs(e.outward()), thin_and_blurred ? 0.025 : 0.01);
+  EXPECT_LT(std::abs(e.outward()), 0.01);
   EXPECT_LT(e.rms(), thin_and_blurred ? 0.12 : 0.08);
 }
 

@@ -52,8 +52,9 @@ struct CornerRefinementOptions {
 // rows and columns -1 and width are the white ring: true for black.
 using TagCells = std::function<bool(int row, int col)>;
 
-// Refines `tag` in place from `gray` (CV_8UC1). Returns false, leaving the tag unchanged, when a
-// side has no usable cell or a corner would move more than max_shift_px.
+// Refines `tag` in place from `gray` (CV_8UC1). Returns false, leaving the tag unchanged, when
+// neither all four junctions (with `junctions`) nor the edges can be measured: a side without a
+// usable cell, a corner that would move more than max_shift_px.
 bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
                       const CornerRefinementOptions& options);
 

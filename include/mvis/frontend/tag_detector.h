@@ -50,6 +50,11 @@ struct TagPatterns {
 };
 StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count);
 
+// An image as the detector takes it (CV_8UC1) from what cameras and files give: 8- or 16-bit,
+// one, three (BGR) or four (BGRA) channels. 16-bit images are scaled so that their brightest
+// pixel becomes 255 (cameras put 10 or 12 bits in 16). Other types: an error naming the type.
+StatusOr<cv::Mat> grayForDetection(const cv::Mat& image);
+
 class TagDetector {
  public:
   static StatusOr<std::unique_ptr<TagDetector>> create(const TagDetectorOptions& options);

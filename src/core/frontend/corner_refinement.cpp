@@ -264,6 +264,42 @@ bool refineByEdges(const cv::Mat& gray, int width, const TagCells& black,
   return true;
 }
 
+// Where a black square touches a corner of `square` (Kalibr's AprilGrid), that corner becomes
+// the centre of the X-junction they make: found from the junction's symmetry, which gamma and
+// blur keep (junction_refinement.h), where edges are moved by gamma. Returns which corners.
+std::array<bool, 4> refineJunctions(const cv::Mat& gray, int width,
+                                    const CornerRefinementOptions& options,
+                                    std::array<Eigen::Vector2d, 4>* square) {
+  std::array<bool, 4> done{false, false, false, false};
+  const TagHomography H(*square, width);
+  if (!H.valid()) return done;
+  const double w = width;
+  const std::array<Eigen::Vector2d, 4> pattern{Eigen::Vector2d(0, 0), Eigen::Vector2d(w, 0),
+                                               Eigen::Vector2d(w, w), Eigen::Vector2d(0, w)};
+  const auto level = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2d px = H(p);
+    const int r = std::clamp(static_cast<int>(std::lround(px.y())), 0, gray.rows - 1);
+    const int c = std::clamp(static_cast<int>(std::lround(px.x())), 0, gray.cols - 1);
+    return static_cast<double>(gray.at<std::uint8_t>(r, c));
+  };
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d next = (pattern[(k + 1) % 4] - pattern[k]) / w;  // unit, in cells
+    const Eigen::Vector2d prev = (pattern[(k + 3) % 4] - pattern[k]) / w;
+    // The four sectors one cell out along the diagonals: the tag's border and the square dark,
+    // the gaps light.
+    const double dark = std::max(level(pattern[k] + next + prev), level(pattern[k] - next - prev));
+    const double light =
+        std::min(level(pattern[k] + next - prev), level(pattern[k] - next + prev));
+    if (light - dark < options.min_contrast) continue;  // no square here
+    const double cell_px = std::min((H(pattern[k] + next) - (*square)[k]).norm(),
+                                    (H(pattern[k] + prev) - (*square)[k]).norm());
+    const auto centre = refineJunction(gray, (*square)[k], std::clamp(1.25 * cell_px, 2.0, 8.0),
+                                       options.max_shift_px);
+    if (centre) (*square)[k] = *centre, done[k] = true;
+  }
+  return done;
+}
+
 }  // namespace
 
 bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
@@ -273,38 +309,20 @@ bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const
   const auto& c = tag->corners_px;
   std::array<Eigen::Vector2d, 4> square{c[3], c[2], c[1], c[0]};
   const std::array<Eigen::Vector2d, 4> initial = square;
-  const bool edges = refineByEdges(gray, width, black, options, &square);
-  if (!edges) square = initial;
-  bool any_junction = false;
+  // Junctions first: where all four corners have one, the edges are not needed.
   if (options.junctions) {
-    // Where a black square touches the corner (Kalibr's AprilGrid), the corner is the centre
-    // of the X-junction they make: found from the junction's symmetry, which gamma and blur keep
-    // (junction_refinement.h), where edges are moved by gamma.
-    const TagHomography H(square, width);
-    const double w = width;
-    const std::array<Eigen::Vector2d, 4> pattern{Eigen::Vector2d(0, 0), Eigen::Vector2d(w, 0),
-                                                 Eigen::Vector2d(w, w), Eigen::Vector2d(0, w)};
-    const auto level = [&](const Eigen::Vector2d& p) {
-      const Eigen::Vector2d px = H(p);
-      const int r = std::clamp(static_cast<int>(std::lround(px.y())), 0, gray.rows - 1);
-      const int c = std::clamp(static_cast<int>(std::lround(px.x())), 0, gray.cols - 1);
-      return static_cast<double>(gray.at<std::uint8_t>(r, c));
-    };
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector2d next = (pattern[(k + 1) % 4] - pattern[k]) / w;  // unit, in cells
-      const Eigen::Vector2d prev = (pattern[(k + 3) % 4] - pattern[k]) / w;
-      const double dark = std::max(level(pattern[k] + next + prev),   // the tag's border
-                                   level(pattern[k] - next - prev));  // the square
-      const double light = std::min(level(pattern[k] + next - prev), level(pattern[k] - next + prev));
-      if (light - dark < options.min_contrast) continue;  // no square here: keep the edges' corner
-      const double cell_px = std::min((H(pattern[k] + next) - square[k]).norm(),
-                                      (H(pattern[k] + prev) - square[k]).norm());
-      const auto centre = refineJunction(gray, square[k], std::clamp(1.25 * cell_px, 2.0, 8.0),
-                                         options.max_shift_px);
-      if (centre) square[k] = *centre, any_junction = true;
+    const auto done = refineJunctions(gray, width, options, &square);
+    if (done[0] && done[1] && done[2] && done[3]) {
+      tag->corners_px = {square[3], square[2], square[1], square[0]};
+      return true;
     }
+    square = initial;
   }
-  if (!edges && !any_junction) return false;
+  // Otherwise the edges, then the junctions there are from the edges' corners; without the
+  // edges, only four junctions make a refined tag.
+  const bool edges = refineByEdges(gray, width, black, options, &square);
+  if (!edges) return false;
+  if (options.junctions) refineJunctions(gray, width, options, &square);
   tag->corners_px = {square[3], square[2], square[1], square[0]};
   return true;
 }

@@ -91,6 +91,30 @@ StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count) {
   return patterns;
 }
 
+StatusOr<cv::Mat> grayForDetection(const cv::Mat& image) {
+  if (image.empty()) return Status::Error("empty image");
+  const int depth = image.depth(), channels = image.channels();
+  if ((depth != CV_8U && depth != CV_16U) || (channels != 1 && channels != 3 && channels != 4)) {
+    return Status::Error("unsupported image type: " + std::to_string(channels) + " channels of " +
+                         (depth == CV_8U ? "8" : depth == CV_16U ? "16" : "other") +
+                         " bits (expected 8 or 16 bits, 1, 3 or 4 channels)");
+  }
+  cv::Mat gray;
+  if (channels == 1) {
+    gray = image;
+  } else {
+    cv::cvtColor(image, gray, channels == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+  }
+  if (depth == CV_16U) {
+    double lo = 0.0, hi = 0.0;
+    cv::minMaxLoc(gray, &lo, &hi);
+    cv::Mat scaled;
+    gray.convertTo(scaled, CV_8U, 255.0 / std::max(hi, 1.0));
+    return scaled;
+  }
+  return gray;
+}
+
 struct TagDetector::Impl {
   std::optional<TagCodebook> codebook;  // the family's words, when it has them
   bool own_engine = false;              // mvis's quads and decoder; else libapriltag's
@@ -169,10 +193,19 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
       refinement.max_shift_px = 2.5;  // from the quad finder's corners, good to ~1 px
       // The junctions need only a start within a pixel; edges alone take three passes under heavy blur.
       refinement.passes = refinement.junctions ? 1 : 3;
-      // Keeps the found corners if it cannot refine them.
-      refineTagCorners(gray, &tag, width,
-                       [&book, id, b](int row, int col) { return book.black(id, b, row, col); },
-                       refinement);
+      const bool refined = refineTagCorners(
+          gray, &tag, width, [&book, id, b](int row, int col) { return book.black(id, b, row, col); },
+          refinement);
+      // On a board (tag_spacing set), a tag big enough to refine whose edges cannot be measured
+      // (blurred into a neighbour, cut by a shadow) would bring corners a pixel or more off
+      // into the calibration: dropped. Smaller ones, and lone tags, keep the found corners.
+      double side_px = 1e9;
+      for (int c = 0; c < 4; ++c) {
+        side_px = std::min(side_px, (tag.corners_px[(c + 1) % 4] - tag.corners_px[c]).norm());
+      }
+      if (!refined && impl_->own_engine && options_.tag_spacing > 0.0 && side_px / width >= 3.0) {
+        continue;
+      }
     }
     tags.push_back(tag);
   }
@@ -220,6 +253,16 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
     return tag;
   };
   for (Quad quad : quads) {
+    if (options.decimate > 1.0) {
+      // Quads from the smaller image are good to a pixel of it: sharpened at full resolution
+      // before anything else (by the edges, as below).
+      TagObservation solid;
+      solid.corners_px = {quad[3], quad[2], quad[1], quad[0]};
+      sharpen.junctions = false;
+      if (refineTagCorners(gray, &solid, 10, [](int, int) { return true; }, sharpen)) {
+        quad = {solid.corners_px[3], solid.corners_px[2], solid.corners_px[1], solid.corners_px[0]};
+      }
+    }
     int border = 1;
     auto tag = read(quad, &border);
     // Sharper corners, then again: small tags' cells are missed by a rough quad. The edges as if

@@ -99,7 +99,8 @@ std::optional<std::pair<Eigen::Vector2d, Eigen::Vector2d>> fitLine(
 }
 
 // The quad of one component's outer contour (pixel coordinates of the black boundary pixels).
-std::optional<Quad> quadOfContour(const std::vector<cv::Point>& contour, int min_side_px) {
+std::optional<Quad> quadOfContour(const std::vector<cv::Point>& contour, int area_px,
+                                  int min_side_px) {
   const int n = static_cast<int>(contour.size());
   if (n < 4 * min_side_px / 2) return std::nullopt;
   std::vector<int> hull;
@@ -133,6 +134,12 @@ std::optional<Quad> quadOfContour(const std::vector<cv::Point>& contour, int min
   double area = 0.0;
   for (int k = 0; k < 4; ++k) area += cross(rough[k], rough[(k + 1) % 4]);
   if (std::abs(area) < 2.0 * min_side_px * min_side_px) return std::nullopt;
+  // Solid (Kalibr's squares, dark blobs): a tag's component is its border and the black data
+  // cells touching it, never more than ~90% of its square. The contour runs through pixel
+  // centres: the square the pixels cover is half a pixel wider all round.
+  double perimeter = 0.0;
+  for (int k = 0; k < 4; ++k) perimeter += (rough[(k + 1) % 4] - rough[k]).norm();
+  if (area_px > 0.93 * (0.5 * std::abs(area) + 0.5 * perimeter + 1.0)) return std::nullopt;
   // The whole contour must follow the four sides.
   double shortest = 1e9;
   for (int k = 0; k < 4; ++k) shortest = std::min(shortest, (rough[(k + 1) % 4] - rough[k]).norm());
@@ -207,7 +214,7 @@ void quadsIn(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi
     const auto largest = std::max_element(
         contours.begin(), contours.end(),
         [](const auto& a, const auto& b) { return a.size() < b.size(); });
-    if (auto quad = quadOfContour(*largest, options.min_side_px)) {
+    if (auto quad = quadOfContour(*largest, area, options.min_side_px)) {
       quads->push_back(*quad);
     } else if (retries > 0 && w >= 2 * options.min_side_px && h >= 2 * options.min_side_px) {
       const cv::Rect again =

@@ -31,7 +31,7 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
 
   std::unique_ptr<TagBoardRenderer> renderer;
   if (config.camera_output == CameraOutput::kImages) {
-    auto created = TagBoardRenderer::create(*truth.target);
+    auto created = TagBoardRenderer::create(*truth.target, config.board);
     if (!created.ok()) return created.status();
     renderer = std::move(created).value();
   }
@@ -50,6 +50,7 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
     RenderOptions render;
     render.supersample = config.supersample;
     render.noise_sigma = config.image_noise_sigma;
+    render.blur_sigma = config.image_blur_px;
     std::uint32_t frame_index = 0;
     for (TimeNs stamp = t0; stamp <= end; stamp += period, ++frame_index) {
       render.seed = static_cast<std::uint32_t>(seed * 100000 + frame_index);

@@ -52,7 +52,7 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     entry.rejectUnknownKeys({"duration_s", "seed", "start_time_s", "motion", "height_m",
                              "amplitude", "camera_rate_hz", "camera_output", "pixel_noise_px",
                              "image_noise_sigma", "supersample", "threads", "imu_noise",
-                             "perturbation"});
+                             "board", "image_blur_px", "perturbation"});
     SimulationConfig c;
     if (entry.has("duration_s")) c.duration_s = entry.positiveNumber("duration_s");
     if (entry.has("seed")) {
@@ -93,6 +93,15 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     c.pixel_noise_px = nonNegative(entry, "pixel_noise_px", c.pixel_noise_px);
     c.image_noise_sigma = nonNegative(entry, "image_noise_sigma", c.image_noise_sigma);
     if (entry.has("supersample")) c.supersample = entry.positiveInteger("supersample");
+    const std::string board = entry.text("board", "kalibr");
+    if (board == "kalibr") {
+      c.board = BoardKind::kKalibrGrid;
+    } else if (board == "plain") {
+      c.board = BoardKind::kPlain;
+    } else {
+      entry.fail("board", "unknown board '" + board + "' (expected kalibr or plain)");
+    }
+    c.image_blur_px = nonNegative(entry, "image_blur_px", c.image_blur_px);
     if (entry.has("threads")) c.threads = entry.positiveInteger("threads");
     if (entry.has("imu_noise")) {
       const std::string flag = entry.text("imu_noise");
