@@ -157,7 +157,10 @@ void MvisNodelet::subscribeSensors() {
         s.rostopic, 2000, [this, i](const sensor_msgs::ImuConstPtr& msg) { onImu(i, msg); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
-  in_.image_transport = std::make_unique<image_transport::ImageTransport>(nh);
+  // With tag_threads > 1 the cameras' images are detected on the nodelet manager's
+  // multi-threaded queue, in parallel (one camera's frames still one at a time).
+  ros::NodeHandle& image_nh = options_.tag_threads > 1 ? getMTNodeHandle() : nh;
+  in_.image_transport = std::make_unique<image_transport::ImageTransport>(image_nh);
   in_.private_image_transport =
       std::make_unique<image_transport::ImageTransport>(getPrivateNodeHandle());
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
@@ -172,7 +175,7 @@ void MvisNodelet::subscribeSensors() {
       // Decoded here: Debian has no compressed_image_transport plugin.
       const std::string topic = cam.rostopic + "/compressed";
       traffic_.push_back({cam.name, topic, 0.0, 0, 0, {}, 0, now});
-      in_.subscribers.push_back(nh.subscribe<sensor_msgs::CompressedImage>(
+      in_.subscribers.push_back(image_nh.subscribe<sensor_msgs::CompressedImage>(
           topic, 20,
           [this, c](const sensor_msgs::CompressedImageConstPtr& msg) { onCompressed(c, msg); }));
     } else {

@@ -59,9 +59,8 @@ int main(int argc, char** argv) {
         images.push_back(renderer.value()->render(
             width, height, mvis::pinholeToBoard(K, mvis::SE3(R, p).inverse()), options));
       }
-      std::vector<Engine> engines = {{"mvis", false, 1.0, true},
-                                     {"mvis", false, 2.0, true},
-                                     {"mvis", false, 2.0, false}};
+      std::vector<Engine> engines = {
+          {"mvis", false, 1.0, true}, {"mvis", false, 2.0, true}, {"mvis", false, 2.0, false}};
       if (kind == mvis::BoardKind::kPlain) {
         engines.push_back({"libapriltag", true, 2.0, false});
         engines.push_back({"libapriltag", true, 2.0, true});

@@ -18,15 +18,14 @@
 namespace {
 
 int usage(const char* message) {
-  std::fprintf(
-      stderr,
-      "%s\nusage: mvis_detect_tags [--family F] [--target aprilgrid.yaml] [--libapriltag] "
-      "[--no-refine] IMAGE...\n"
-      "  --family F      tag family (default tag36h11; with --target, the target's)\n"
-      "  --target FILE   a Kalibr aprilgrid.yaml: only its board's ids, its tag spacing\n"
-      "  --libapriltag   libapriltag's detector (plain tags only) instead of mvis's\n"
-      "  --no-refine     the detector's corners without the sub-pixel refinement\n",
-      message);
+  std::fprintf(stderr,
+               "%s\nusage: mvis_detect_tags [--family F] [--target aprilgrid.yaml] [--libapriltag] "
+               "[--no-refine] IMAGE...\n"
+               "  --family F      tag family (default tag36h11; with --target, the target's)\n"
+               "  --target FILE   a Kalibr aprilgrid.yaml: only its board's ids, its tag spacing\n"
+               "  --libapriltag   libapriltag's detector (plain tags only) instead of mvis's\n"
+               "  --no-refine     the detector's corners without the sub-pixel refinement\n",
+               message);
   return 2;
 }
 
@@ -64,8 +63,8 @@ int main(int argc, char** argv) {
     const auto grid = mvis::parseAprilGrid(text.str(), target);
     if (!grid.ok()) return usage(grid.status().message().c_str());
     if (!family.empty() && family != grid.value().tag_family) {
-      return usage(("--family " + family + " but " + target + " says " +
-                    grid.value().tag_family).c_str());
+      return usage(
+          ("--family " + family + " but " + target + " says " + grid.value().tag_family).c_str());
     }
     options.family = grid.value().tag_family;
     options.tag_spacing = grid.value().tag_spacing;

@@ -28,7 +28,7 @@ cv::Mat textureRender(const BoardView& view, const TagBoardRenderer& board,
   const double kalibr_cell = view.grid.tag_size / 10.0;  // both kinds' cells are multiples of
   const double texel = kalibr_cell / 8.0;                // 1/40 of a tag: 8 texels per 1/10
   const double pitch = (1.0 + view.grid.tag_spacing) * view.grid.tag_size;
-  const double lo = -pitch;                                       // board margin of one pitch
+  const double lo = -pitch;  // board margin of one pitch
   const double hi = view.grid.tag_cols * pitch - view.grid.tag_spacing * view.grid.tag_size + pitch;
   const int texels = static_cast<int>(std::lround((hi - lo) / texel));
   cv::Mat texture(texels, texels, CV_32FC1);
@@ -36,8 +36,8 @@ cv::Mat textureRender(const BoardView& view, const TagBoardRenderer& board,
     for (int j = 0; j < texels; ++j) {
       // Texel (i, j) covers board [lo + j t, lo + (j + 1) t] x [lo + i t, lo + (i + 1) t].
       const double r = board.reflectance(lo + (j + 0.5) * texel, lo + (i + 0.5) * texel, 1.0);
-      texture.at<float>(i, j) = static_cast<float>(
-          r < 0.0 ? 110.0 : options.black + r * (options.white - options.black));
+      texture.at<float>(i, j) =
+          static_cast<float>(r < 0.0 ? 110.0 : options.black + r * (options.white - options.black));
     }
   }
   // Board point (x, y) -> texel coordinates (centres at integers).
@@ -86,8 +86,8 @@ BoardView renderBoard(const SE3& T_cam_board, const ViewOptions& options) {
     render.blur_sigma = options.blur_sigma;
     render.noise_sigma = options.noise_sigma;
     render.seed = options.seed;
-    view.image = board.value()->render(752, 480, pinholeToBoard(view.intrinsics, T_cam_board),
-                                       render);
+    view.image =
+        board.value()->render(752, 480, pinholeToBoard(view.intrinsics, T_cam_board), render);
     return view;
   }
   cv::Mat clean = textureRender(view, *board.value(), options);

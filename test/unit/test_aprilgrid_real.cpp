@@ -130,9 +130,10 @@ TEST(RealAprilGrid, RealSenseFramesAgreeWithAnotherDetector) {
     }
   }
   const double rms = std::sqrt(sum_sq / corners);
-  std::printf("RealSense frames: %d of %d listed tags found, %d more; corners vs the reference: "
-              "RMS %.3f px, mean outward %+.3f px\n",
-              matched, listed, extra, rms, outward / corners);
+  std::printf(
+      "RealSense frames: %d of %d listed tags found, %d more; corners vs the reference: "
+      "RMS %.3f px, mean outward %+.3f px\n",
+      matched, listed, extra, rms, outward / corners);
   EXPECT_GE(matched, listed - 4);
   EXPECT_LT(rms, 0.3);
   EXPECT_LT(std::abs(outward / corners), 0.05);
@@ -148,8 +149,7 @@ namespace {
 // store them) and from colour.
 TEST(RealAprilGrid, SixteenBitAndColourImagesGiveTheSameTags) {
   const auto detector = gridDetector();
-  const cv::Mat gray =
-      cv::imread(kData + "cam0_1403709395937837056.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat gray = cv::imread(kData + "cam0_1403709395937837056.png", cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(gray.empty());
   cv::Mat ten_bits, colour;
   gray.convertTo(ten_bits, CV_16U, 4.0);  // 0..1020

@@ -15,8 +15,8 @@
 #include <cstdio>
 
 #include "board_images.h"
-#include "mvis/frontend/tag_observation.h"
 #include "mvis/frontend/tag_detector.h"
+#include "mvis/frontend/tag_observation.h"
 
 namespace mvis {
 namespace {
@@ -54,7 +54,7 @@ void measure(const test::BoardView& view, const std::vector<TagObservation>& tag
 
 const std::vector<SE3>& views() {
   static const std::vector<SE3> kViews = {
-      test::viewOfBoard(0.0, 0.0, 0.9),   test::viewOfBoard(0.35, 0.05, 0.9),
+      test::viewOfBoard(0.0, 0.0, 0.9),    test::viewOfBoard(0.35, 0.05, 0.9),
       test::viewOfBoard(0.05, -0.45, 1.0), test::viewOfBoard(0.3, 0.3, 0.8),
       test::viewOfBoard(-0.45, 0.2, 0.95), test::viewOfBoard(0.12, -0.08, 0.85),
   };
@@ -120,4 +120,3 @@ INSTANTIATE_TEST_SUITE_P(Renderers, CornerAccuracy, ::testing::ValuesIn(cases())
 
 }  // namespace
 }  // namespace mvis
-

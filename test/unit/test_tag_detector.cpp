@@ -91,8 +91,8 @@ PhotoResult comparePhotos(const TagDetector& detector, double max_corner_px) {
         const double error =
             (best->corners_px[c] + Eigen::Vector2d(0.5, 0.5) - e.corners[c]).norm();
         result.worst_px = std::max(result.worst_px, error);
-        EXPECT_LT(error, max_corner_px) << name << " tag at " << centre(e.corners).transpose()
-                                        << " corner " << c;
+        EXPECT_LT(error, max_corner_px)
+            << name << " tag at " << centre(e.corners).transpose() << " corner " << c;
       }
     }
   }
@@ -107,8 +107,8 @@ TEST(TagDetector, LibapriltagFindsItsOwnTagsInRealPhotos) {
   options.refine_corners = false;
   options.max_hamming = 2;
   const PhotoResult r = comparePhotos(*makeDetector(options), 0.5);
-  std::printf("libapriltag on real photos: %d of %d expected tags, worst corner %.3f px\n",
-              r.found, r.expected, r.worst_px);
+  std::printf("libapriltag on real photos: %d of %d expected tags, worst corner %.3f px\n", r.found,
+              r.expected, r.worst_px);
   EXPECT_GE(r.found, r.expected - 1);  // Debian's 3.3.0 misses one (ORIGIN.md)
 }
 
@@ -118,9 +118,10 @@ TEST(TagDetector, LibapriltagFindsItsOwnTagsInRealPhotos) {
 // ~1.6 px from the library's, as does one half-hidden tag under a cube; the rest within 1 px.
 TEST(TagDetector, MvisFindsTheLibrarysTagsInRealPhotos) {
   const PhotoResult r = comparePhotos(*makeDetector(TagDetectorOptions()), 2.0);
-  std::printf("mvis on real photos: %d of %d expected tags, worst corner %.3f px from the "
-              "library's\n",
-              r.found, r.expected, r.worst_px);
+  std::printf(
+      "mvis on real photos: %d of %d expected tags, worst corner %.3f px from the "
+      "library's\n",
+      r.found, r.expected, r.worst_px);
   EXPECT_GE(r.found, r.expected - 4);
 }
 

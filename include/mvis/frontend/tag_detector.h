@@ -26,11 +26,11 @@ struct TagDetectorOptions {
   bool use_libapriltag = false;     // libapriltag's detector instead of mvis's (no AprilGrids)
   double decimate = 1.0;            // quads searched in an image this many times smaller (>= 1);
                                     // codes and corners are read at full resolution
-  int max_hamming = 1;          // bits the decoder may correct (0..2); more invites wrong ids
-  bool refine_corners = true;   // sub-pixel corners from the edges (corner_refinement.h)
-  double min_contrast = 20.0;   // mvis engine: black to white of a tag at least [grey levels]
-  double tag_spacing = 0.0;     // the board's gap between tags / tag size (aprilgrid.yaml's
-                                // tagSpacing); 0: a lone tag, white only in its ring
+  int max_hamming = 1;              // bits the decoder may correct (0..2); more invites wrong ids
+  bool refine_corners = true;       // sub-pixel corners from the edges (corner_refinement.h)
+  double min_contrast = 20.0;       // mvis engine: black to white of a tag at least [grey levels]
+  double tag_spacing = 0.0;         // the board's gap between tags / tag size (aprilgrid.yaml's
+                                    // tagSpacing); 0: a lone tag, white only in its ring
   // libapriltag engine only:
   double blur_sigma = 0.0;   // Gaussian blur [px] before quad detection; < 0 sharpens
   bool refine_edges = true;  // snap quad edges to strong gradients at full resolution
@@ -40,9 +40,9 @@ struct TagDetectorOptions {
   std::string validate() const;  // empty when usable
 };
 
-// The printed patterns of a family's first `count` tags (every tag for count < 0): one byte per cell (0 black, 255 white),
-// row-major, row 0 at the top of the upright tag. The detected square spans the middle
-// width_at_border cells; the rest is the outer ring.
+// The printed patterns of a family's first `count` tags (every tag for count < 0): one byte per
+// cell (0 black, 255 white), row-major, row 0 at the top of the upright tag. The detected square
+// spans the middle width_at_border cells; the rest is the outer ring.
 struct TagPatterns {
   int total_width = 0;
   int width_at_border = 0;

@@ -23,7 +23,7 @@ struct NodeletOptions {
   double tag_decimate = 2.0;          // quad search at 1/decimate resolution (>= 1)
   bool tag_refine_corners = true;     // mvis's edge-based sub-pixel corner refinement
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
-  int tag_threads = 1;                // libapriltag threads per camera
+  int tag_threads = 1;  // > 1: cameras' images detected in parallel (and libapriltag's threads)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 4;                              // states in the sliding window
   double pixel_sigma = 1.0;                         // [px] corner noise

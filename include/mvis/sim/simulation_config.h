@@ -22,12 +22,12 @@ struct SimulationConfig {
   MotionOptions motion;
   std::vector<double> camera_rate_hz;  // one per camera of the rig
   CameraOutput camera_output = CameraOutput::kImages;
-  double pixel_noise_px = 0.5;     // detections: Gaussian noise on true corners [px]
-  double image_noise_sigma = 2.0;  // images: Gaussian intensity noise [0..255]
-  int supersample = 3;             // images: anti-aliasing samples per pixel and axis
+  double pixel_noise_px = 0.5;               // detections: Gaussian noise on true corners [px]
+  double image_noise_sigma = 2.0;            // images: Gaussian intensity noise [0..255]
+  int supersample = 3;                       // images: anti-aliasing samples per pixel and axis
   BoardKind board = BoardKind::kKalibrGrid;  // images: the printed board
-  double image_blur_px = 0.0;      // images: Gaussian blur of the optics [px]
-  bool imu_noise = true;           // white noise and bias random walks on inertial data
+  double image_blur_px = 0.0;                // images: Gaussian blur of the optics [px]
+  bool imu_noise = true;                     // white noise and bias random walks on inertial data
   int threads = 2;                 // images: rendering threads (same images for any number)
   PerturbationSizes perturbation;  // of the written initial guess
 };

@@ -57,8 +57,8 @@ class CameraRays {
 };
 
 enum class BoardKind {
-  kPlain,        // libapriltag's tags, one-cell border
-  kKalibrGrid,   // Kalibr's AprilGrid: two-cell borders, black squares between the tags
+  kPlain,       // libapriltag's tags, one-cell border
+  kKalibrGrid,  // Kalibr's AprilGrid: two-cell borders, black squares between the tags
 };
 
 class TagBoardRenderer {

@@ -214,8 +214,7 @@ std::optional<SideFit> fitSide(const cv::Mat& gray, const TagHomography& H, cons
     // Offsets per window, then a line e(s) = alpha + beta s along the side.
     double s0 = 0, s1 = 0, s2 = 0, e_sum = 0, se_sum = 0;
     for (const auto& window : windows) {
-      const auto e =
-          edgeOffset(window.pixels, white, dark, window.reach_out, window.reach_in, n);
+      const auto e = edgeOffset(window.pixels, white, dark, window.reach_out, window.reach_in, n);
       if (!e) continue;
       const double s = window.lateral;
       s0 += 1.0, s1 += s, s2 += s * s, e_sum += *e, se_sum += s * *e;
@@ -288,8 +287,7 @@ std::array<bool, 4> refineJunctions(const cv::Mat& gray, int width,
     // The four sectors one cell out along the diagonals: the tag's border and the square dark,
     // the gaps light.
     const double dark = std::max(level(pattern[k] + next + prev), level(pattern[k] - next - prev));
-    const double light =
-        std::min(level(pattern[k] + next - prev), level(pattern[k] - next + prev));
+    const double light = std::min(level(pattern[k] + next - prev), level(pattern[k] - next + prev));
     if (light - dark < options.min_contrast) continue;  // no square here
     const double cell_px = std::min((H(pattern[k] + next) - (*square)[k]).norm(),
                                     (H(pattern[k] + prev) - (*square)[k]).norm());

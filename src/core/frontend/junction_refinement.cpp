@@ -15,8 +15,8 @@ bool sample(const cv::Mat& gray, double u, double v, double* value) {
   const double a = u - c, b = v - r;
   const auto* row0 = gray.ptr<std::uint8_t>(r);
   const auto* row1 = gray.ptr<std::uint8_t>(r + 1);
-  *value = (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) +
-           b * ((1 - a) * row1[c] + a * row1[c + 1]);
+  *value =
+      (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) + b * ((1 - a) * row1[c] + a * row1[c + 1]);
   return true;
 }
 
@@ -47,7 +47,8 @@ std::optional<Eigen::Vector2d> refineJunction(const cv::Mat& gray, const Eigen::
     }
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < n; ++j) {
-        values[i * n + j] = 0.25 * (rows[i * n + j] + 2.0 * rows[(i + 1) * n + j] + rows[(i + 2) * n + j]);
+        values[i * n + j] =
+            0.25 * (rows[i * n + j] + 2.0 * rows[(i + 1) * n + j] + rows[(i + 2) * n + j]);
       }
     }
     Eigen::Matrix2d A = Eigen::Matrix2d::Zero();

@@ -1,6 +1,5 @@
 #include "tag_codebook.h"
 
-
 #include "mvis/frontend/tag_detector.h"
 
 namespace mvis {

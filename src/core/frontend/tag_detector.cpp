@@ -13,14 +13,13 @@
 
 #include <algorithm>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "mvis/frontend/corner_refinement.h"
 #include "tag_codebook.h"
 #include "tag_quads.h"
 #include "tag_reading.h"
-
-#include <opencv2/imgproc.hpp>
 
 namespace mvis {
 namespace {
@@ -96,7 +95,9 @@ StatusOr<cv::Mat> grayForDetection(const cv::Mat& image) {
   const int depth = image.depth(), channels = image.channels();
   if ((depth != CV_8U && depth != CV_16U) || (channels != 1 && channels != 3 && channels != 4)) {
     return Status::Error("unsupported image type: " + std::to_string(channels) + " channels of " +
-                         (depth == CV_8U ? "8" : depth == CV_16U ? "16" : "other") +
+                         (depth == CV_8U    ? "8"
+                          : depth == CV_16U ? "16"
+                                            : "other") +
                          " bits (expected 8 or 16 bits, 1, 3 or 4 channels)");
   }
   cv::Mat gray;
@@ -191,11 +192,12 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
       refinement.corner_cells = border == 1;
       refinement.junctions = border == 2;
       refinement.max_shift_px = 2.5;  // from the quad finder's corners, good to ~1 px
-      // The junctions need only a start within a pixel; edges alone take three passes under heavy blur.
+      // The junctions need only a start within a pixel; edges alone take three passes under heavy
+      // blur.
       refinement.passes = refinement.junctions ? 1 : 3;
       const bool refined = refineTagCorners(
-          gray, &tag, width, [&book, id, b](int row, int col) { return book.black(id, b, row, col); },
-          refinement);
+          gray, &tag, width,
+          [&book, id, b](int row, int col) { return book.black(id, b, row, col); }, refinement);
       // On a board (tag_spacing set), a tag big enough to refine whose edges cannot be measured
       // (blurred into a neighbour, cut by a shadow) would bring corners a pixel or more off
       // into the calibration: dropped. Smaller ones, and lone tags, keep the found corners.
@@ -259,7 +261,8 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
       TagObservation solid;
       solid.corners_px = {quad[3], quad[2], quad[1], quad[0]};
       sharpen.junctions = false;
-      if (refineTagCorners(gray, &solid, 10, [](int, int) { return true; }, sharpen)) {
+      if (refineTagCorners(
+              gray, &solid, 10, [](int, int) { return true; }, sharpen)) {
         quad = {solid.corners_px[3], solid.corners_px[2], solid.corners_px[1], solid.corners_px[0]};
       }
     }
@@ -273,16 +276,18 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
       TagObservation solid;
       solid.corners_px = {quad[3], quad[2], quad[1], quad[0]};
       sharpen.junctions = junctions;
-      if (!refineTagCorners(gray, &solid, 10, [](int, int) { return true; }, sharpen)) continue;
-      tag = read({solid.corners_px[3], solid.corners_px[2], solid.corners_px[1],
-                  solid.corners_px[0]},
-                 &border);
+      if (!refineTagCorners(
+              gray, &solid, 10, [](int, int) { return true; }, sharpen))
+        continue;
+      tag =
+          read({solid.corners_px[3], solid.corners_px[2], solid.corners_px[1], solid.corners_px[0]},
+               &border);
     }
     if (!tag) continue;
     // One id once: a second reading of the same tag (e.g. from a split component) is dropped,
     // the better one kept; two far apart are both kept for the checks to refuse.
-    const Eigen::Vector2d centre = 0.25 * (tag->corners_px[0] + tag->corners_px[1] +
-                                           tag->corners_px[2] + tag->corners_px[3]);
+    const Eigen::Vector2d centre =
+        0.25 * (tag->corners_px[0] + tag->corners_px[1] + tag->corners_px[2] + tag->corners_px[3]);
     const double size = (tag->corners_px[2] - tag->corners_px[0]).norm();
     bool duplicate = false;
     for (auto& [other, other_border] : tags) {

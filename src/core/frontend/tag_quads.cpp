@@ -211,14 +211,14 @@ void quadsIn(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi
     cv::findContours(component, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
                      cv::Point(roi.x + box.x, roi.y + box.y));
     if (contours.empty()) continue;
-    const auto largest = std::max_element(
-        contours.begin(), contours.end(),
-        [](const auto& a, const auto& b) { return a.size() < b.size(); });
+    const auto largest =
+        std::max_element(contours.begin(), contours.end(),
+                         [](const auto& a, const auto& b) { return a.size() < b.size(); });
     if (auto quad = quadOfContour(*largest, area, options.min_side_px)) {
       quads->push_back(*quad);
     } else if (retries > 0 && w >= 2 * options.min_side_px && h >= 2 * options.min_side_px) {
-      const cv::Rect again =
-          cv::Rect(roi.x + x - 2, roi.y + y - 2, w + 4, h + 4) & cv::Rect(0, 0, gray.cols, gray.rows);
+      const cv::Rect again = cv::Rect(roi.x + x - 2, roi.y + y - 2, w + 4, h + 4) &
+                             cv::Rect(0, 0, gray.cols, gray.rows);
       quadsIn(gray, levels, again, margin + 0.1, retries - 1, options, quads);
     }
   }

@@ -12,8 +12,8 @@
 // code is within max_hamming bits.
 #pragma once
 
-#include <optional>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 
 #include "mvis/frontend/tag_observation.h"
 #include "tag_codebook.h"

@@ -51,8 +51,8 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     const EntryReader entry(rig_io::parseYamlText(yaml_text, path), path, "");
     entry.rejectUnknownKeys({"duration_s", "seed", "start_time_s", "motion", "height_m",
                              "amplitude", "camera_rate_hz", "camera_output", "pixel_noise_px",
-                             "image_noise_sigma", "supersample", "threads", "imu_noise",
-                             "board", "image_blur_px", "perturbation"});
+                             "image_noise_sigma", "supersample", "threads", "imu_noise", "board",
+                             "image_blur_px", "perturbation"});
     SimulationConfig c;
     if (entry.has("duration_s")) c.duration_s = entry.positiveNumber("duration_s");
     if (entry.has("seed")) {

@@ -34,7 +34,7 @@ void blurAndQuantize(const cv::Mat& clean, const RenderOptions& options, cv::Mat
 }  // namespace
 
 StatusOr<std::unique_ptr<TagBoardRenderer>> TagBoardRenderer::create(const AprilGrid& grid,
-                                                                      BoardKind kind) {
+                                                                     BoardKind kind) {
   std::unique_ptr<TagBoardRenderer> renderer(new TagBoardRenderer());
   renderer->grid_ = grid;
   renderer->kind_ = kind;
