@@ -162,7 +162,26 @@ bool toImuMeasurement(const sensor_msgs::Imu& msg, bool gyroscope_only, ImuMeasu
 }
 
 bool toGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
-  if (msg->height > 0 && msg->data.size() < static_cast<std::size_t>(msg->step) * msg->height) {
+  if (msg->width == 0 || msg->height == 0) {
+    *why = "empty image (" + std::to_string(msg->width) + "x" + std::to_string(msg->height) + ")";
+    return false;
+  }
+  try {
+    // Rows that overlap would make cv_bridge read past the data's end (found by fuzzing).
+    namespace enc = sensor_msgs::image_encodings;
+    const std::uint64_t row_bytes = static_cast<std::uint64_t>(msg->width) *
+                                    enc::numChannels(msg->encoding) * enc::bitDepth(msg->encoding) /
+                                    8;
+    if (msg->step < row_bytes) {
+      *why = "step (" + std::to_string(msg->step) + " bytes) shorter than a row of " +
+             std::to_string(msg->width) + " '" + msg->encoding + "' pixels (" +
+             std::to_string(row_bytes) + " bytes)";
+      return false;
+    }
+  } catch (const std::exception&) {
+    // An encoding image_encodings does not know: cv_bridge refuses it below.
+  }
+  if (msg->data.size() < static_cast<std::size_t>(msg->step) * msg->height) {
     *why = "image data (" + std::to_string(msg->data.size()) + " bytes) shorter than step x height";
     return false;
   }

@@ -130,7 +130,11 @@ void MvisNodelet::publishTags() {
   visualization_msgs::MarkerArray array;
   visualization_msgs::Marker squares;
   squares.header.frame_id = options_.frame_prefix + "board";
-  squares.header.stamp = ros::Time::now();
+  // Stamp zero: the board does not move, rviz takes the latest transform. A stamp of "now" is 0
+  // under sim time before a replayed bag's clock starts (the tags are latched at start) or lies
+  // behind the bag's TF: rviz then looks for a transform at that time forever and shows the
+  // Tags display in error.
+  squares.header.stamp = ros::Time();
   squares.ns = "tags";
   squares.id = 0;
   squares.type = visualization_msgs::Marker::TRIANGLE_LIST;

@@ -27,6 +27,7 @@ namespace {
 // libapriltag 3.3 puts (0, 0) at the top-left corner of the top-left pixel; mvis (OpenCV,
 // Kalibr) at its centre. Measured by test_tag_detector on rendered images with known corners.
 constexpr double kLibraryToMvisPx = -0.5;
+constexpr int kLibraryMinSidePx = 16;
 
 struct FamilyFunctions {
   apriltag_family_t* (*create)();
@@ -304,6 +305,9 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
 }
 
 TagDetector::Impl::Found TagDetector::Impl::detectLibrary(const cv::Mat& gray) const {
+  // libapriltag 3.3 reads past its buffers on tiny images (found by test_fuzz: a segfault in
+  // its quad finder); nothing that small holds a tag anyway.
+  if (gray.cols < kLibraryMinSidePx || gray.rows < kLibraryMinSidePx) return {};
   image_u8_t image{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]),
                    const_cast<uint8_t*>(gray.ptr<uint8_t>(0))};
   zarray_t* found = apriltag_detector_detect(detector, &image);
