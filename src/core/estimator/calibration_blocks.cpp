@@ -181,7 +181,7 @@ void CalibrationBlocks::covarianceBlocks(
   }
 }
 
-void CalibrationBlocks::updateStd(const ceres::Problem& problem, const ceres::Covariance& cov,
+void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
                                   const TangentCovariance& tangent) {
   // Blocks held whole (constant) keep the standard deviations they had.
   std::vector<CameraCalibrationStd> out =

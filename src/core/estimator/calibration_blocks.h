@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "block_covariance.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/factors/state_blocks.h"
 #include "mvis/rig/rig.h"
@@ -89,7 +90,7 @@ class CalibrationBlocks {
   void covarianceBlocks(const ceres::Problem& problem,
                         std::vector<std::pair<const double*, const double*>>* blocks) const;
   // Standard deviations from a computed covariance; blocks held whole keep theirs.
-  void updateStd(const ceres::Problem& problem, const ceres::Covariance& cov,
+  void updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
                  const TangentCovariance& tangent);
   // Latest standard deviations of a camera or auxiliary calibration block in its own tangent
   // (the prior's before any covariance); empty for another block.

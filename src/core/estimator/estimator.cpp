@@ -284,16 +284,13 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
   solves_since_covariance = 0;
   if (window.empty()) return Status::Error("no state yet");
   ceres::Problem* problem = window.problem();
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  co.num_threads = options.threads;
-  ceres::Covariance cov(co);
+  estimator_internal::BlockCovariance cov;
   std::vector<std::pair<const double*, const double*>> blocks;
   double* newest = window.newest().pose;
   blocks.emplace_back(newest, newest);
   calibration.covarianceBlocks(*problem, &blocks);
   intrinsics.covarianceBlocks(*problem, &blocks);
-  if (!cov.Compute(blocks, problem)) return Status::Error("covariance computation failed");
+  if (!cov.compute(blocks, problem)) return Status::Error("covariance computation failed");
   const auto tangent = [&](const double* block) {
     return monitor.tangentCovariance(*problem, cov, block);
   };
@@ -301,7 +298,7 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
   if (pose_cov != nullptr) {
     cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
     if (monitor.holding()) {
-      const Status s = monitor.poseCovarianceWithHeld(problem, newest, options.threads, pose_cov);
+      const Status s = monitor.poseCovarianceWithHeld(problem, newest, pose_cov);
       if (!s.ok()) return s;
     }
   }

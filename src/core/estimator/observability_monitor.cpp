@@ -485,12 +485,13 @@ void ObservabilityMonitor::applyHolds(ceres::Problem* problem) {
       if (was_constant) problem->SetParameterBlockVariable(block);
       problem->SetManifold(block, hold.subspace.get());
     }
+    hold.sequence = existing != holds_.end() ? existing->second.sequence : holds_made_++;
     holds_[block] = std::move(hold);  // the replaced manifold is no longer in use
   }
 }
 
 Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& problem,
-                                                        const ceres::Covariance& cov,
+                                                        const BlockCovariance& cov,
                                                         const double* block) const {
   const int t = problem.ParameterBlockTangentSize(block);
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(t, t);
@@ -507,7 +508,6 @@ Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& pr
 }
 
 Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
-                                                    int threads,
                                                     Eigen::Matrix<double, 6, 6>* pose_cov) {
   // The pose depends on what is held (a camera's translation along the only rotation axis
   // moves imu0's position in the board frame along it): with the held directions constant its
@@ -516,7 +516,12 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, dou
   // along them (the marginalization prior keeps what earlier motion told, which is part of the
   // kept variance too), so the pose's variance along them is at worst about half what it is.
   std::vector<ceres::ResidualBlockId> added;
-  for (auto& [const_block, hold] : holds_) {
+  // In the order they were held, not by address: the residuals' order is the covariance's.
+  std::vector<std::pair<std::uint64_t, const double*>> order;
+  for (const auto& [block, hold] : holds_) order.emplace_back(hold.sequence, block);
+  std::sort(order.begin(), order.end());
+  for (const auto& [sequence, const_block] : order) {
+    Hold& hold = holds_.at(const_block);
     double* block = const_cast<double*>(const_block);
     if (hold.subspace) {
       problem->SetManifold(block, hold.base);
@@ -529,12 +534,9 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, dou
                                hold.directions, hold.variance.cwiseMax(1e-30).cwiseSqrt()),
         nullptr, block));
   }
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  co.num_threads = threads;
-  ceres::Covariance cov(co);
+  BlockCovariance cov;
   const std::vector<std::pair<const double*, const double*>> pose_block = {{pose, pose}};
-  const bool ok = cov.Compute(pose_block, problem);
+  const bool ok = cov.compute(pose_block, problem);
   if (ok) cov.GetCovarianceBlockInTangentSpace(pose, pose, pose_cov->data());
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
   for (auto& [const_block, hold] : holds_) {

@@ -12,11 +12,13 @@
 
 #include <ceres/ceres.h>
 
+#include <cstdint>
 #include <deque>
 #include <map>
 #include <memory>
 #include <vector>
 
+#include "block_covariance.h"
 #include "calibration_blocks.h"
 #include "imu_intrinsics.h"
 
@@ -49,11 +51,11 @@ class ObservabilityMonitor {
   bool estimated(const ceres::Problem& problem, const double* block) const;
   // Covariance of a block in its own manifold's tangent (held directions with the variance they
   // keep); NaN where the block was not in the computation.
-  Eigen::MatrixXd tangentCovariance(const ceres::Problem& problem, const ceres::Covariance& cov,
+  Eigen::MatrixXd tangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
                                     const double* block) const;
   // The pose block's covariance with the held directions released at the uncertainty they kept
   // (replaces *pose_cov): with them constant it would be as if they were known.
-  Status poseCovarianceWithHeld(ceres::Problem* problem, double* pose, int threads,
+  Status poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
                                 Eigen::Matrix<double, 6, 6>* pose_cov);
   bool holding() const { return !holds_.empty(); }
   // Forgets everything (the problem the holds were in is gone).
@@ -84,6 +86,7 @@ class ObservabilityMonitor {
     std::unique_ptr<SubspaceManifold> subspace;
     Eigen::MatrixXd directions;
     Eigen::VectorXd variance;
+    std::uint64_t sequence = 0;  // when first held: an order that is not the block's address
   };
   struct Quantity;
 
@@ -103,6 +106,7 @@ class ObservabilityMonitor {
   std::vector<UnobservableCalibration> unobservable_;
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Hold> holds_;
+  std::uint64_t holds_made_ = 0;
 };
 
 }  // namespace estimator_internal
