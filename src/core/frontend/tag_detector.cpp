@@ -278,8 +278,9 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
       solid.corners_px = {quad[3], quad[2], quad[1], quad[0]};
       sharpen.junctions = junctions;
       if (!refineTagCorners(
-              gray, &solid, 10, [](int, int) { return true; }, sharpen))
+              gray, &solid, 10, [](int, int) { return true; }, sharpen)) {
         continue;
+      }
       tag =
           read({solid.corners_px[3], solid.corners_px[2], solid.corners_px[1], solid.corners_px[0]},
                &border);
