@@ -8,19 +8,26 @@
 // from the profile's ends) is pulled outwards there; that was mvis's old refinement's outward
 // bias of ~0.04 px on images rendered by others. Knowing the code, this refinement measures
 // each side only across data cells that are black (the black then reaches two cells in and the
-// edge is a plain step) and falls back to the white ones, with a narrower window, only for a side
-// without any.
+// edge is a plain step), plus the border's corner cells where the ring is white around them,
+// and falls back to the white ones, with a narrower window, only for a side without any.
 //
 // Across such a cell the edge's offset e along the inward normal t comes from the image's
-// black area in a window t in [-r, r] (r = 3/4 of a cell, at most 6 px): with the white and
-// black levels W, B measured in the window's outer quarters [-r, -r/2] and [r/2, r],
+// black area in a window t in [-r, r] (r = 1.25 cells where the neighbouring columns are black
+// two cells deep too, else 0.75; at most 10 px and short of the white known outside), its
+// lateral sides sheared with the cells: with the white and black levels W, B measured in the
+// window's outer halves,
 //   sum_p w_p (W - I_p) / (W - B) = sum_p w_p S(t_p - e)
 // over the pixels p in the window, w_p the part of a pixel's footprint inside it and S the
-// step seen through that footprint. Area is what pixels preserve, so this holds whatever the
-// edge's phase within a pixel, and blur only moves area across t = e symmetrically; blur also
-// dims both levels alike, which cancels in a window centred on the edge (each pass re-centres
-// it). A line is fitted to each side's offsets and the corners are the neighbouring lines'
-// intersections; three passes.
+// part of the pixel's square beyond the edge (exact for any edge direction). Area is what
+// pixels preserve, so this holds whatever the edge's phase within a pixel, and blur only moves
+// area across t = e symmetrically; blur also dims both levels alike, which cancels in a window
+// centred on the edge (each pass re-centres it). A line is fitted to each side's offsets and the
+// corners are the neighbouring lines' intersections.
+//
+// With `junctions` (Kalibr's AprilGrid), a corner where a black square touches the tag is
+// instead the centre of the X-junction they make (junction_refinement.h), which no symmetric
+// blur and no camera gamma moves: tried first from the given corners, the edges only where a
+// corner has no junction.
 //
 // Lens distortion bends long edges; the straight-line model holds for tags that span a small
 // part of the image.

@@ -11,8 +11,11 @@
 //
 // Each component of plausible size gives its outer contour; four corners are chosen on its
 // convex hull (the largest inscribed quadrilateral, found greedily), the contour must stay close
-// to the quadrilateral's sides, and the corners are sharpened by intersecting lines fitted to the
-// middle of each side. They are good to a fraction of a cell, enough to read the code; the
+// to the quadrilateral's sides (a small bump, such as a square still attached at a corner, is
+// tolerated), solid components (the squares themselves) are refused, and the corners are
+// sharpened by intersecting lines fitted to the middle of each side. A component that is no quad
+// but big enough to hold several (tags joined where a junction's centre came out dark) is
+// thresholded again in its box with a larger margin (0.2, then 0.3). They are good to a fraction of a cell, enough to read the code; the
 // sub-pixel corners come later (corner_refinement.h).
 #pragma once
 
