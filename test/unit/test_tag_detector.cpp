@@ -1,5 +1,5 @@
-// Tag detection against real photos with the library's expected detections, and against
-// rendered boards with exactly known corners.
+// Tag detection against real photos with the library's expected detections, and on rendered
+// boards with exactly known corners (the small tags, the refinement's gain, corrupt images).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,9 +7,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <regex>
 
+#include "board_images.h"
 #include "mvis/frontend/tag_checks.h"
 #include "mvis/frontend/tag_detector.h"
-#include "mvis/sim/tag_renderer.h"
 
 namespace mvis {
 namespace {
@@ -125,43 +125,6 @@ TEST(TagDetector, MvisFindsTheLibrarysTagsInRealPhotos) {
   EXPECT_GE(r.found, r.expected - 4);
 }
 
-struct RenderedScene {
-  AprilGrid grid;
-  Eigen::Vector4d intrinsics{450.0, 450.0, 375.5, 239.5};
-  SE3 T_cam_board;
-  cv::Mat image;
-};
-
-// A 6x6 board seen from `T_cam_board` by a 752x480 pinhole camera.
-RenderedScene renderScene(const SE3& T_cam_board, double noise_sigma, std::uint32_t seed) {
-  RenderedScene scene;
-  scene.grid.tag_cols = 6;
-  scene.grid.tag_rows = 6;
-  scene.grid.tag_size = 0.088;
-  scene.grid.tag_spacing = 0.3;
-  scene.T_cam_board = T_cam_board;
-  auto renderer = TagBoardRenderer::create(scene.grid);
-  EXPECT_TRUE(renderer.ok());
-  RenderOptions options;
-  options.noise_sigma = noise_sigma;
-  options.seed = seed;
-  scene.image =
-      renderer.value()->render(752, 480, pinholeToBoard(scene.intrinsics, T_cam_board), options);
-  return scene;
-}
-
-// Camera about 0.9 m in front of the board centre, tilted by `tilt` [rad] about x and y.
-SE3 viewOfBoard(double tilt_x, double tilt_y, double distance) {
-  const Eigen::Vector3d board_centre(0.3212, 0.3212, 0.0);  // middle of the 6x6 grid
-  // Camera looking at the board with its optical axis along the board's -z... the board faces
-  // the camera: camera z towards the board, camera x along board x, camera y along board -y.
-  Eigen::Matrix3d R_board_cam;
-  R_board_cam << 1, 0, 0, 0, -1, 0, 0, 0, -1;
-  R_board_cam = lie::expSO3(Eigen::Vector3d(tilt_x, tilt_y, 0.0)) * R_board_cam;
-  const Eigen::Vector3d p_board_cam = board_centre - distance * R_board_cam.col(2);
-  return SE3(R_board_cam, p_board_cam).inverse();
-}
-
 struct CornerErrors {
   int tags = 0;
   int wrong_ids = 0;
@@ -169,7 +132,14 @@ struct CornerErrors {
   double max = 0.0;
 };
 
-CornerErrors measure(const RenderedScene& scene, const std::vector<TagObservation>& tags) {
+// A board (plain tags, mvis's renderer, noise sigma 2) seen from `T_cam_board`.
+test::BoardView renderScene(const SE3& T_cam_board, std::uint32_t seed) {
+  test::ViewOptions options;
+  options.seed = seed;
+  return test::renderBoard(T_cam_board, options);
+}
+
+CornerErrors measure(const test::BoardView& scene, const std::vector<TagObservation>& tags) {
   CornerErrors e;
   double sum_sq = 0.0;
   for (const auto& tag : tags) {
@@ -179,9 +149,7 @@ CornerErrors measure(const RenderedScene& scene, const std::vector<TagObservatio
     }
     double tag_max = 0.0;
     for (int c = 0; c < 4; ++c) {
-      const Eigen::Vector2d truth =
-          projectPinhole(scene.intrinsics, scene.T_cam_board, scene.grid.corner(tag.tag_id, c));
-      const double error = (tag.corners_px[c] - truth).norm();
+      const double error = (tag.corners_px[c] - scene.truth(tag.tag_id, c)).norm();
       tag_max = std::max(tag_max, error);
       sum_sq += error * error;
     }
@@ -197,47 +165,12 @@ CornerErrors measure(const RenderedScene& scene, const std::vector<TagObservatio
   return e;
 }
 
-TEST(TagDetector, CornersOnRenderedBoardsAreAccurate) {
-  const auto detector = makeDetector(TagDetectorOptions());
-  CornerErrors all;
-  double sum_sq = 0.0;
-  int views = 0;
-  for (const auto& [tx, ty, d] :
-       std::vector<std::tuple<double, double, double>>{{0.0, 0.0, 0.9},
-                                                       {0.35, 0.0, 0.9},
-                                                       {0.0, -0.45, 1.0},
-                                                       {0.3, 0.3, 0.8},
-                                                       {-0.45, 0.2, 0.95}}) {
-    const RenderedScene scene = renderScene(viewOfBoard(tx, ty, d), 2.0, 100 + views++);
-    const auto found = detector->detect(scene.image);
-    ASSERT_TRUE(found.ok());
-    const CornerErrors e = measure(scene, found.value());
-    std::printf("  view tilt (%.2f, %.2f) at %.2f m: RMS %.3f px, max %.3f px\n", tx, ty, d, e.rms,
-                e.max);
-    EXPECT_EQ(e.wrong_ids, 0);
-    EXPECT_EQ(e.tags, scene.grid.numTags()) << "view " << tx << " " << ty;
-    all.tags += e.tags;
-    all.wrong_ids += e.wrong_ids;
-    all.max = std::max(all.max, e.max);
-    sum_sq += e.rms * e.rms * e.tags;
-  }
-  all.rms = std::sqrt(sum_sq / all.tags);
-  std::printf("rendered boards: %d tags, corner error RMS %.3f px, max %.3f px, %d wrong ids\n",
-              all.tags, all.rms, all.max, all.wrong_ids);
-  // The renderer's jittered box filter is unbiased; with noise sigma 2 on a contrast of 205 and
-  // ~30 edge points per side, a refined corner is good to ~0.04 px RMS. Foreshortened tags whose
-  // cells drop under 4 px keep libapriltag's corners (0.15 px RMS, up to ~0.3 px). Without the
-  // refinement the RMS here is ~0.15 px, and a half-pixel convention slip gives 0.7 px: 0.07 px
-  // RMS and 0.35 px max catch either while leaving room for noise.
-  EXPECT_LT(all.rms, 0.07);
-  EXPECT_LT(all.max, 0.35);
-}
-
-// Tags too small to refine (cells under 4 px) keep libapriltag's corners: all found, right ids,
-// at the library's accuracy (0.15 px RMS on larger tags; small ones fare a little worse).
+// Corner accuracy per renderer, board kind and blur is test_tag_corners'; here the small end:
+// tags of 26 px (cells of ~3 px) are all found with the right ids, their corners refined where
+// the cells allow and the quad finder's elsewhere.
 TEST(TagDetector, SmallTagsAreFoundWithTheRightIds) {
   const auto detector = makeDetector(TagDetectorOptions());
-  const RenderedScene scene = renderScene(viewOfBoard(0.2, 0.1, 1.5), 2.0, 11);
+  const test::BoardView scene = renderScene(test::viewOfBoard(0.2, 0.1, 1.5), 11);
   const CornerErrors e = measure(scene, detector->detect(scene.image).value());
   std::printf("small tags (26 px): %d found, corner RMS %.3f px, max %.3f px\n", e.tags, e.rms,
               e.max);
@@ -246,15 +179,17 @@ TEST(TagDetector, SmallTagsAreFoundWithTheRightIds) {
   EXPECT_LT(e.rms, 0.25);
 }
 
-TEST(TagDetector, RefinementBeatsTheLibraryOnRenderedBoards) {
-  TagDetectorOptions library_only;
-  library_only.refine_corners = false;
-  const auto plain = makeDetector(library_only);
+// The refinement is what makes the corners: the quad finder's own (thresholded contours) are
+// several times further off.
+TEST(TagDetector, RefinementBeatsTheQuadFindersCorners) {
+  TagDetectorOptions unrefined;
+  unrefined.refine_corners = false;
+  const auto rough = makeDetector(unrefined);
   const auto refined = makeDetector(TagDetectorOptions());
-  const RenderedScene scene = renderScene(viewOfBoard(0.25, -0.2, 0.9), 2.0, 7);
-  const CornerErrors before = measure(scene, plain->detect(scene.image).value());
+  const test::BoardView scene = renderScene(test::viewOfBoard(0.25, -0.2, 0.9), 7);
+  const CornerErrors before = measure(scene, rough->detect(scene.image).value());
   const CornerErrors after = measure(scene, refined->detect(scene.image).value());
-  std::printf("corner RMS: libapriltag %.3f px, refined %.3f px\n", before.rms, after.rms);
+  std::printf("corner RMS: quads %.3f px, refined %.3f px\n", before.rms, after.rms);
   ASSERT_EQ(before.tags, after.tags);
   EXPECT_LT(after.rms, 0.5 * before.rms);
 }

@@ -37,14 +37,13 @@ std::array<PatternSide, 4> patternSides(double w) {
           PatternSide{{0, w}, {0, -1}, {1, 0}}};  // left
 }
 
-// The pixels of the window t in [-reach_out, reach_in] across the edge segment e0 -> e1, with
+// The pixels of the window t in [-reach, reach] across the edge segment e0 -> e1, with
 // inward normal n. Its lateral sides run along `across`, the image of the pattern's inward
 // direction: under perspective the cells are sheared, and a window cut square to the edge would
 // reach into the neighbouring cells.
 void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::Vector2d& e1,
-                   const Eigen::Vector2d& n, const Eigen::Vector2d& across, double reach_out,
-                   double reach_in, std::vector<EdgePixel>* out) {
-  const double reach = std::max(reach_out, reach_in);
+                   const Eigen::Vector2d& n, const Eigen::Vector2d& across, double reach,
+                   std::vector<EdgePixel>* out) {
   out->clear();
   const Eigen::Vector2d d = e1 - e0;
   // p - e0 = lateral * d + m * across; lateral = cross(p - e0, across) / cross(d, across).
@@ -67,7 +66,7 @@ void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::
       const double lateral = (p.x() * across.y() - p.y() * across.x()) / det;
       if (lateral < 0.0 || lateral > 1.0) continue;
       const double t = p.dot(n);
-      const double inside = std::min(t + half, reach_in) - std::max(t - half, -reach_out);
+      const double inside = std::min(t + half, reach) - std::max(t - half, -reach);
       if (inside <= 0.0) continue;
       out->push_back({t, static_cast<double>(row[c]), inside / (2.0 * half)});
     }
@@ -111,7 +110,7 @@ double stepSeenSlope(double t, double e, const Eigen::Vector2d& n) {
 
 // The edge offset in one window (see the header), given the levels; nullopt if not found.
 std::optional<double> edgeOffset(const std::vector<EdgePixel>& pixels, double white, double black,
-                                 double reach_out, double reach_in, const Eigen::Vector2d& n) {
+                                 double reach, const Eigen::Vector2d& n) {
   double area = 0.0, total = 0.0;
   for (const auto& p : pixels) {
     area += p.weight * (white - p.value) / (white - black);
@@ -119,7 +118,7 @@ std::optional<double> edgeOffset(const std::vector<EdgePixel>& pixels, double wh
   }
   if (total <= 0.0) return std::nullopt;
   // Continuous guess, then Newton on the piecewise-linear pixel sum.
-  double e = reach_in - area * (reach_in + reach_out) / total;
+  double e = reach - area * (2.0 * reach) / total;
   for (int iteration = 0; iteration < 8; ++iteration) {
     double g = -area, slope = 0.0;
     for (const auto& p : pixels) {
@@ -131,7 +130,7 @@ std::optional<double> edgeOffset(const std::vector<EdgePixel>& pixels, double wh
     e += std::clamp(step, -0.5, 0.5);
     if (std::abs(step) < 1e-4) break;
   }
-  if (!(e > -0.9 * reach_out && e < 0.9 * reach_in)) return std::nullopt;
+  if (!(std::abs(e) < 0.9 * reach)) return std::nullopt;
   return e;
 }
 
@@ -140,11 +139,11 @@ struct SideFit {
   Eigen::Vector2d direction;  // unit
 };
 
-// One window across a side: its pixels, where it lies along the side, and its reaches.
+// One window across a side: its pixels, where it lies along the side, and its reach.
 struct Window {
   std::vector<EdgePixel> pixels;
   double lateral = 0.0;  // centre's distance along the side from its start [px]
-  double reach_out = 0.0, reach_in = 0.0;
+  double reach = 0.0;    // half its extent across the edge [px]
 };
 
 // The refined edge line of one side, from the current square (homography H).
@@ -192,13 +191,13 @@ std::optional<SideFit> fitSide(const cv::Mat& gray, const TagHomography& H, cons
       const double reach =
           std::min({kMaxWindowPx, (deep >= 2 ? 1.25 : 0.75) * cell_px,
                     std::clamp(options.white_outside_cells - 0.25, 0.5, 1.5) * cell_px});
-      window.reach_in = window.reach_out = reach;
+      window.reach = reach;
       // Corner cells: the half away from the corner (the ring's corner may be near).
       const double from = corner ? (j == 0 ? 0.45 : 0.05) : 0.25;
       const Eigen::Vector2d e0 = H(side.start + (j + from) * side.along);
       const Eigen::Vector2d e1 = H(side.start + (j + from + 0.5) * side.along);
       const Eigen::Vector2d across = (H(mid + side.inward) - H(mid)).normalized();
-      collectWindow(gray, e0, e1, n, across, window.reach_out, window.reach_in, &window.pixels);
+      collectWindow(gray, e0, e1, n, across, reach, &window.pixels);
       if (window.pixels.size() < 4) continue;
       // Levels from the outer halves of the window.
       for (const auto& p : window.pixels) {
@@ -214,7 +213,7 @@ std::optional<SideFit> fitSide(const cv::Mat& gray, const TagHomography& H, cons
     // Offsets per window, then a line e(s) = alpha + beta s along the side.
     double s0 = 0, s1 = 0, s2 = 0, e_sum = 0, se_sum = 0;
     for (const auto& window : windows) {
-      const auto e = edgeOffset(window.pixels, white, dark, window.reach_out, window.reach_in, n);
+      const auto e = edgeOffset(window.pixels, white, dark, window.reach, n);
       if (!e) continue;
       const double s = window.lateral;
       s0 += 1.0, s1 += s, s2 += s * s, e_sum += *e, se_sum += s * *e;

@@ -4,23 +4,9 @@
 #include <cmath>
 #include <vector>
 
+#include "image_sampling.h"
+
 namespace mvis {
-namespace {
-
-// Bilinear intensity at (u, v); false outside the image.
-bool sample(const cv::Mat& gray, double u, double v, double* value) {
-  const int c = static_cast<int>(std::floor(u));
-  const int r = static_cast<int>(std::floor(v));
-  if (c < 0 || r < 0 || c + 1 >= gray.cols || r + 1 >= gray.rows) return false;
-  const double a = u - c, b = v - r;
-  const auto* row0 = gray.ptr<std::uint8_t>(r);
-  const auto* row1 = gray.ptr<std::uint8_t>(r + 1);
-  *value =
-      (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) + b * ((1 - a) * row1[c] + a * row1[c + 1]);
-  return true;
-}
-
-}  // namespace
 
 std::optional<Eigen::Vector2d> refineJunction(const cv::Mat& gray, const Eigen::Vector2d& start,
                                               double radius, double max_shift_px) {
@@ -33,7 +19,7 @@ std::optional<Eigen::Vector2d> refineJunction(const cv::Mat& gray, const Eigen::
   for (int iteration = 0; iteration < 12; ++iteration) {
     for (int i = 0; i < m; ++i) {
       for (int j = 0; j < m; ++j) {
-        if (!sample(gray, q.x() + j - half - 2, q.y() + i - half - 2, &raw[i * m + j])) {
+        if (!bilinear(gray, q.x() + j - half - 2, q.y() + i - half - 2, &raw[i * m + j])) {
           return std::nullopt;
         }
       }

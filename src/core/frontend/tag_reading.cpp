@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "image_sampling.h"
 #include "tag_homography.h"
 
 namespace mvis {
@@ -11,16 +12,11 @@ namespace {
 
 constexpr double kSharpening = 0.25;
 
-// Bilinear intensity at (u, v) in mvis's pixel convention; NaN outside the image.
+// Bilinear intensity at an image point; NaN outside the image.
 double sample(const cv::Mat& gray, const Eigen::Vector2d& p) {
-  const int c = static_cast<int>(std::floor(p.x()));
-  const int r = static_cast<int>(std::floor(p.y()));
-  if (c < 0 || r < 0 || c + 1 >= gray.cols || r + 1 >= gray.rows) return std::nan("");
-  const double a = p.x() - c, b = p.y() - r;
-  const auto* row0 = gray.ptr<std::uint8_t>(r);
-  const auto* row1 = gray.ptr<std::uint8_t>(r + 1);
-  return (1 - b) * ((1 - a) * row0[c] + a * row0[c + 1]) +
-         b * ((1 - a) * row1[c] + a * row1[c + 1]);
+  double value = std::nan("");
+  bilinear(gray, p.x(), p.y(), &value);
+  return value;
 }
 
 // Least-squares plane v = c0 + c1 x + c2 y through samples (x, y, v).
