@@ -95,6 +95,9 @@ void MvisNodelet::onInit() {
     eo.robust_loss = options_.robust_loss == "frame" ? RobustLoss::kFrame : RobustLoss::kCorner;
     eo.propagation_noise = options_.propagation_noise;
     eo.min_tags = options_.min_tags;
+    eo.imu_max_gap_s = options_.imu_max_gap_s;
+    eo.failure_step_sigma = options_.failure_step_sigma;
+    eo.frame_gate_sigma = options_.frame_gate_sigma;
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;
     eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
@@ -209,14 +212,19 @@ void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg)
   if (!estimator_) return;
   std::lock_guard<std::mutex> lock(estimator_mutex_);
   if (sensor == 0) last_gyro_ = reading.gyro;
-  const long resets = estimator_->counters().resets;
-  const Status status = estimator_->addImu(sensor, reading);
-  if (estimator_->counters().resets != resets) {
-    // Time went backwards (a bag started over): the estimator said so and started over, and so
-    // does the path. Not throttled: it is rare and important.
+  const long restarts = estimator_->counters().restarts;
+  noteEstimatorStatus(restarts, estimator_->addImu(sensor, reading));
+}
+
+void MvisNodelet::noteEstimatorStatus(long restarts, const Status& status) {
+  if (estimator_->counters().restarts != restarts) {
+    // A gap or jump of the base clock (a bag started over) or a failure found after a solve:
+    // the window started over from the trusted calibration, and so does the path. Logged at
+    // most once a second: it is rare and important.
     path_.poses.clear();
     have_update_ = false;
-    NODELET_WARN_STREAM("mvis: " << status.message());
+    estimator_error_ = estimator_->lastRestart().reason;
+    NODELET_WARN_STREAM_THROTTLE(1.0, "mvis: " << estimator_error_);
   } else if (!status.ok()) {
     estimator_error_ = status.message();
     NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << status.message());
@@ -285,11 +293,8 @@ void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result
   frontend_->dropBefore(camera, result.frame.stamp_ns - kNsPerSecond);
   if (estimator_) {
     std::lock_guard<std::mutex> lock(estimator_mutex_);
-    const Status status = estimator_->addTagFrame(result.frame);
-    if (!status.ok()) {
-      estimator_error_ = status.message();
-      NODELET_WARN_STREAM_THROTTLE(5.0, "mvis: " << status.message());
-    }
+    const long restarts = estimator_->counters().restarts;
+    noteEstimatorStatus(restarts, estimator_->addTagFrame(result.frame));
   }
   std::lock_guard<std::mutex> lock(mutex_);
   SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
@@ -415,6 +420,10 @@ void MvisNodelet::publishCalibration() {
   if (have_update_) {
     for (const auto& d : last_update_.unobservable) msg.unobservable.push_back(d.text());
   }
+  const Estimator::Restart restart = estimator_->lastRestart();
+  msg.restarts = static_cast<std::uint32_t>(estimator_->counters().restarts);
+  msg.last_restart_reason = restart.reason;
+  if (!restart.reason.empty()) msg.last_restart = ros_conversions::toRosTime(restart.stamp_ns);
   out_.calibration.publish(msg);
 }
 
@@ -462,9 +471,9 @@ bool MvisNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Respon
   estimator_->reset();
   path_.poses.clear();
   have_update_ = false;
-  NODELET_INFO("mvis: reset on request; the calibration estimate is kept");
+  NODELET_INFO("mvis: reset on request; the window starts over from the trusted calibration");
   response.success = true;
-  response.message = "reset; the calibration estimate is kept";
+  response.message = "reset; the window starts over from the trusted calibration";
   return true;
 }
 

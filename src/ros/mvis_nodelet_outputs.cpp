@@ -61,6 +61,12 @@ void MvisNodelet::publishDiagnostics() {
     const EstimatorCounters& c = estimator_->counters();
     add("solves", std::to_string(c.solves));
     add("resets", std::to_string(c.resets));
+    add("restarts", std::to_string(c.restarts));
+    add("failures", std::to_string(c.failures));
+    add("frames_rejected", std::to_string(c.frames_rejected));
+    add("stamps_implausible", std::to_string(c.stamps_implausible));
+    const std::string restart = estimator_->lastRestart().reason;
+    if (!restart.empty()) add("last_restart", restart);
     add("frames_dropped", std::to_string(c.frames_too_old + c.frames_too_close +
                                          c.frames_out_of_order + c.frames_in_imu_gap));
     add("frames_too_few_tags", std::to_string(c.frames_too_few_tags));

@@ -23,6 +23,9 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("robust_loss", o.robust_loss, o.robust_loss);
   nh.param("propagation_noise", o.propagation_noise, o.propagation_noise);
   nh.param("min_tags", o.min_tags, o.min_tags);
+  nh.param("imu_max_gap", o.imu_max_gap_s, o.imu_max_gap_s);
+  nh.param("failure_step_sigma", o.failure_step_sigma, o.failure_step_sigma);
+  nh.param("frame_gate_sigma", o.frame_gate_sigma, o.frame_gate_sigma);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
   nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
@@ -75,6 +78,13 @@ std::string NodeletOptions::validate() const {
     return "parameter ~robust_loss must be 'corner' or 'frame', got '" + robust_loss + "'";
   }
   if (min_tags < 1) return "parameter ~min_tags must be >= 1";
+  if (!(imu_max_gap_s > 0.0)) return "parameter ~imu_max_gap must be positive";
+  if (!(failure_step_sigma == 0.0 || failure_step_sigma >= 3.0)) {
+    return "parameter ~failure_step_sigma must be 0 (off) or >= 3";
+  }
+  if (!(frame_gate_sigma == 0.0 || frame_gate_sigma >= 3.0)) {
+    return "parameter ~frame_gate_sigma must be 0 (off) or >= 3";
+  }
   if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
     return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +
            aux_imu_model + "'";

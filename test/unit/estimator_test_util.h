@@ -109,7 +109,8 @@ inline std::unique_ptr<Estimator> runFrom(const Rig& guess, const SimRun& run,
   if (!created.ok()) return nullptr;
   std::unique_ptr<Estimator> estimator = std::move(created).value();
   feed(run, estimator.get());
-  EXPECT_TRUE(estimator->initialized()) << estimator->status();
+  EXPECT_TRUE(estimator->initialized())
+      << estimator->status() << "; last restart: " << estimator->lastRestart().reason;
   EXPECT_TRUE(estimator->computeCovariance().ok());
   if (!estimator->initialized()) return nullptr;
   return estimator;

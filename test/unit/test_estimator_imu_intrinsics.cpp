@@ -239,8 +239,12 @@ TEST(Estimator, FixedIntrinsicsLinearizationEndsWorse) {
     const auto mode =
         m == 0 ? IntrinsicsLinearization::kReintegrate : IntrinsicsLinearization::kFixed;
     EstimatorOptions options = intrinsicsOptions(mode, 10.0);
-    // The linearization alone: no degeneracy holds (they act on the early, large errors too).
+    // The linearization alone: no degeneracy holds (they act on the early, large errors too),
+    // and no failure checks: the fixed linearization's estimate moves further than its
+    // covariance allows (what this test shows), which they report and restart on (imu1's
+    // intrinsics 16 sigma beyond what the data explain after 20 s).
     options.imu_intrinsics_observability_ratio = 0.0;
+    options.failure_step_sigma = 0.0;
     const auto estimator = runFrom(run.guess, run, options);
     ASSERT_NE(estimator, nullptr);
     for (const auto& e :

@@ -302,7 +302,8 @@ TEST(Estimator, HoldsNamedQuantitiesAndRefusesUnknownOnes) {
   ASSERT_TRUE(created.ok()) << created.status().message();
   Estimator& estimator = *created.value();
   feed(run, &estimator);
-  ASSERT_TRUE(estimator.initialized()) << estimator.status();
+  ASSERT_TRUE(estimator.initialized())
+      << estimator.status() << "; last restart: " << estimator.lastRestart().reason;
   ASSERT_TRUE(estimator.computeCovariance().ok());
   const Rig estimate = estimator.calibration();
   EXPECT_EQ(estimate.cameras[1].intrinsics, run.guess.cameras[1].intrinsics);

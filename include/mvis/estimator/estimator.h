@@ -178,6 +178,29 @@ struct EstimatorOptions {
   // horizon tells less than this many times its prior (handheld motion: 2-45 for Da, ~500 for
   // Dw; constant components: ~0). 0 turns it off.
   double imu_intrinsics_observability_ratio = 1.0;
+  // Faults (README "Bad data"). A hole in the base IMU's readings longer than this, a jump of
+  // its clock back by more than 1 s (a bag restarted) or forward, and a failure found by the
+  // checks below start the window over from the trusted calibration: the last one the checks
+  // passed, with its covariance as prior (src/core/estimator/trusted_calibration.h), or the
+  // configured one before any. What the rig did during a longer hole cannot be known; shorter
+  // holes are integrated with inflated noise (imu_preintegration.h). Measured (small rig, 40 s,
+  // test_faults): holes of 25-35 ms integrated leave the calibration as without them; 40-80 ms
+  // moved a camera's position by 0.8-2.1 mm (up to 7.5 sigma): the inflated noise is not an
+  // honest model that long (the auxiliary sensors' factors read the base motion inside the hole
+  // too), so those start over. [s]
+  double imu_max_gap_s = 0.03;
+  // After every solve, each calibration block's step from the trusted calibration whitened by
+  // the trusted covariance: a component beyond this [sigma] is a failure, as is a newest state
+  // moving faster than 50 m/s (or, with a board, 1 km from it). With every covariance, the step
+  // whitened by what the data since the trusted calibration can explain (its covariance minus
+  // the new one): beyond 8 a failure (trusted_calibration.h). 0: both tests off.
+  double failure_step_sigma = 10.0;
+  // With a board, a camera frame whose corners' median residual at the current estimate is over
+  // 3 times its camera's recent frames' (and over 2 sigma), or once a calibration is trusted
+  // over this [pixel_sigma_px], is dropped before it enters (its clock or the camera moved, or
+  // a wrong detection; with a camera clock drifting by 0.5% for 3 s, 19 frames were dropped and
+  // the innovation test caught the rest, test_faults). 0: no frame is dropped.
+  double frame_gate_sigma = 10.0;
 };
 
 // Checked at creation: a clear message naming the option.
@@ -256,6 +279,11 @@ struct EstimatorCounters {
   long aux_dropped = 0;   // aux readings dropped (non-finite, out of order, unknown sensor)
   long aux_dropouts = 0;  // times an auxiliary sensor left the window (readings stopped)
   long aux_starts = 0;    // times an auxiliary sensor's states started in the window
+  // Faults (EstimatorOptions::imu_max_gap_s and after).
+  long restarts = 0;            // the window started over from the trusted calibration
+  long failures = 0;            // failures found by the checks after a solve
+  long frames_rejected = 0;     // frames far from where the estimate puts them (frame_gate_sigma)
+  long stamps_implausible = 0;  // frames and aux readings stamped far from the base IMU's time
 };
 
 class Estimator {
@@ -273,8 +301,8 @@ class Estimator {
   // A reading of inertial sensor `sensor` (0: the base IMU, else an auxiliary IMU or gyroscope;
   // a gyroscope's accel is ignored) stamped in its own clock. Errors describe a dropped reading
   // or a change worth a warning (an auxiliary sensor that stopped or came back); a base stamp
-  // more than 1 s before the last one is taken as a restart (bag replay): the estimator resets
-  // and says so.
+  // more than 1 s before the last one (a bag replayed) or more than imu_max_gap_s after it
+  // starts the window over from the trusted calibration, and says so.
   Status addImu(std::size_t sensor, const ImuMeasurement& measurement);
   // Tags of one camera frame (camera clock). Errors describe a dropped frame.
   Status addTagFrame(const TagFrame& frame);
@@ -297,8 +325,16 @@ class Estimator {
   std::string status() const;
   bool initialized() const;
   const EstimatorCounters& counters() const;
-  // Drops everything but the calibration estimate and starts over.
+  // Drops everything and starts over from the trusted calibration (the latest that the failure
+  // checks passed, with its covariance; EstimatorOptions::imu_max_gap_s).
   void reset();
+  // The last time the window started over from the trusted calibration (a gap or jump of the
+  // base IMU's clock, a failure found after a solve, a reset) and why; reason empty if never.
+  struct Restart {
+    std::string reason;
+    TimeNs stamp_ns = 0;  // base clock
+  };
+  Restart lastRestart() const;
 
  private:
   struct Impl;

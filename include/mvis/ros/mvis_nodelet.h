@@ -78,6 +78,10 @@ class MvisNodelet : public nodelet::Nodelet {
   void rejectCameraMessage(std::size_t camera, const std::string& why);
   // Counts the front end's result for a camera message and warns about dropped tags.
   void recordTags(std::size_t camera, const TagFrontendResult& result);
+  // After a call into the estimator (estimator_mutex_ held): its complaint logged (throttled);
+  // a restart of the window (counters().restarts moved past `restarts`) clears the path and is
+  // logged at once.
+  void noteEstimatorStatus(long restarts, const Status& status);
 
   NodeletOptions options_;
   Rig rig_;

@@ -25,18 +25,21 @@ struct NodeletOptions {
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
   int tag_threads = 1;  // > 1: cameras' images detected in parallel (and libapriltag's threads)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
-  int window_size = 4;                              // states in the sliding window
-  double pixel_sigma = 1.0;                         // [px] corner noise
-  double huber_sigma = 3.0;                         // [sigma] camera factors' robust loss, 0: none
-  std::string robust_loss = "corner";               // where it acts: "corner" or "frame"
-  bool propagation_noise = false;                   // frames between states carry the IMU's noise
-  int min_tags = 2;                                 // tags a frame needs with a board (1 without)
-  bool estimate_extrinsics = true;                  // camera-IMU extrinsics
-  bool estimate_time_offsets = true;                // camera time offsets
-  bool estimate_aux_extrinsics = true;              // T_i_b of aux IMUs (rotation of gyroscopes)
-  bool estimate_aux_time_offsets = true;            // time_offset of aux IMUs and gyroscopes
-  bool estimate_intrinsics = false;                 // every camera's intrinsics and distortion
-  bool estimate_imu_intrinsics = false;             // rpng and kalibr sensors' intrinsics
+  int window_size = 4;                 // states in the sliding window
+  double pixel_sigma = 1.0;            // [px] corner noise
+  double huber_sigma = 3.0;            // [sigma] camera factors' robust loss, 0: none
+  std::string robust_loss = "corner";  // where it acts: "corner" or "frame"
+  bool propagation_noise = false;      // frames between states carry the IMU's noise
+  int min_tags = 2;                    // tags a frame needs with a board (1 without)
+  double imu_max_gap_s = 0.03;  // [s] longer base-IMU holes restart from the trusted calibration
+  double failure_step_sigma = 10.0;       // [sigma] calibration step that is a failure, 0: off
+  double frame_gate_sigma = 10.0;         // [pixel_sigma] frames this far off are dropped, 0: off
+  bool estimate_extrinsics = true;        // camera-IMU extrinsics
+  bool estimate_time_offsets = true;      // camera time offsets
+  bool estimate_aux_extrinsics = true;    // T_i_b of aux IMUs (rotation of gyroscopes)
+  bool estimate_aux_time_offsets = true;  // time_offset of aux IMUs and gyroscopes
+  bool estimate_intrinsics = false;       // every camera's intrinsics and distortion
+  bool estimate_imu_intrinsics = false;   // rpng and kalibr sensors' intrinsics
   bool estimate_gravity_sensitivity = false;        // and their Tg
   std::vector<std::string> hold;                    // "<sensor>.<quantity>" held (EstimatorOptions)
   std::string aux_imu_model = "velocity_state";     // or "rigid_velocity" (report Appendix B)

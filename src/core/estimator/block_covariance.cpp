@@ -12,6 +12,8 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
                               ceres::Problem* problem) {
   blocks_.clear();
   euclidean_.clear();
+  columns_.clear();
+  offset_.clear();
   // Columns: the variable blocks in the order the residual blocks (kept by Ceres in insertion
   // order) first mention them. Problem::GetParameterBlocks would give them by address.
   std::vector<ceres::ResidualBlockId> residuals;
@@ -64,6 +66,8 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
     Eigen::MatrixXd C = x.middleRows(offset, t);
     blocks_[a] = 0.5 * (C + C.transpose());
     euclidean_[a] = problem->ParameterBlockSize(a) == t;
+    columns_[a] = x;
+    offset_[a] = offset;
   }
   return true;
 }
@@ -75,6 +79,30 @@ bool BlockCovariance::GetCovarianceBlockInTangentSpace(const double* a, const do
   const Eigen::MatrixXd& C = it->second;
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(out, C.rows(),
                                                                                      C.cols()) = C;
+  return true;
+}
+
+bool BlockCovariance::joint(const std::vector<const double*>& blocks, Eigen::MatrixXd* out) const {
+  int n = 0;
+  for (const double* b : blocks) {
+    const auto it = blocks_.find(b);
+    if (it == blocks_.end()) return false;
+    n += static_cast<int>(it->second.rows());
+  }
+  out->resize(n, n);
+  int row = 0;
+  for (const double* a : blocks) {
+    const int ta = static_cast<int>(blocks_.at(a).rows());
+    int col = 0;
+    for (const double* b : blocks) {
+      const Eigen::MatrixXd& xb = columns_.at(b);
+      const int tb = static_cast<int>(xb.cols());
+      out->block(row, col, ta, tb) = xb.middleRows(offset_.at(a), ta);
+      col += tb;
+    }
+    row += ta;
+  }
+  *out = 0.5 * (*out + out->transpose());
   return true;
 }
 

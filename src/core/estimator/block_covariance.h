@@ -34,9 +34,15 @@ class BlockCovariance {
   // the same for the ambient block of a Euclidean one (tangent = ambient); false otherwise.
   bool GetCovarianceBlockInTangentSpace(const double* a, const double* b, double* out) const;
   bool GetCovarianceBlock(const double* a, const double* b, double* out) const;
+  // The joint tangent covariance of computed blocks, stacked in the order given (their
+  // cross-covariances too); false if one was not computed.
+  bool joint(const std::vector<const double*>& blocks, Eigen::MatrixXd* out) const;
 
  private:
   std::unordered_map<const double*, Eigen::MatrixXd> blocks_;
+  // Per computed block its columns of the inverse (all rows) and its offset among the rows.
+  std::unordered_map<const double*, Eigen::MatrixXd> columns_;
+  std::unordered_map<const double*, int> offset_;
   std::unordered_map<const double*, bool> euclidean_;
 };
 

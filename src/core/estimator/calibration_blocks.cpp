@@ -25,6 +25,16 @@ CalibrationPrior calibrationPrior(double rotation, double translation, double ti
   return p;
 }
 
+// The configured prior of a block, unless the trusted calibration's joint prior covers it.
+void addPrior(ceres::Problem* problem, const TrustedCalibration& trusted,
+              ceres::CostFunction* configured, double* block) {
+  if (trusted.covers(block)) {
+    delete configured;  // the trusted calibration's joint prior stands instead
+    return;
+  }
+  problem->AddResidualBlock(configured, nullptr, block);
+}
+
 ceres::CostFunction* timeOffsetPrior(double value, double std) {
   return new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / std),
                                 Eigen::Matrix<double, 1, 1>(value));
@@ -72,7 +82,7 @@ CalibrationBlocks::CalibrationBlocks(const Rig& rig, const EstimatorOptions& opt
   }
 }
 
-void CalibrationBlocks::addTo(ceres::Problem* problem) {
+void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration& trusted) {
   const EstimatorOptions& o = options_;
   problem->AddParameterBlock(gravity_, kGravitySize, &sphere_manifold_);
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
@@ -94,11 +104,12 @@ void CalibrationBlocks::addTo(ceres::Problem* problem) {
     b.prior = calibrationPrior(o.extrinsic_rotation_prior_rad, o.extrinsic_translation_prior_m,
                                o.time_offset_prior_s, sd ? &sd->rotation : nullptr,
                                sd ? &sd->translation : nullptr, sd ? sd->timeshift_cam_imu : 0.0);
-    problem->AddResidualBlock(
+    addPrior(
+        problem, trusted,
         PosePriorFactor::fromStd(poseToSE3(b.extrinsic), b.prior.rotation, b.prior.translation),
-        nullptr, b.extrinsic);
-    problem->AddResidualBlock(timeOffsetPrior(b.time_offset[0], b.prior.time_offset), nullptr,
-                              b.time_offset);
+        b.extrinsic);
+    addPrior(problem, trusted, timeOffsetPrior(b.time_offset[0], b.prior.time_offset),
+             b.time_offset);
     // Intrinsics: the configuration's *_std keys where they are positive, else the defaults.
     for (int i = 0; i < kIntrinsicsSize; ++i) {
       const double fallback = i < 2   ? o.intrinsics_focal_prior_px
@@ -109,10 +120,11 @@ void CalibrationBlocks::addTo(ceres::Problem* problem) {
     }
     if (intrinsics) {
       using Vector8d = Eigen::Matrix<double, kIntrinsicsSize, 1>;
-      problem->AddResidualBlock(
+      addPrior(
+          problem, trusted,
           new ceres::NormalPrior(Eigen::MatrixXd(b.intrinsics_prior.cwiseInverse().asDiagonal()),
                                  Vector8d(Eigen::Map<const Vector8d>(b.intrinsics))),
-          nullptr, b.intrinsics);
+          b.intrinsics);
     }
   }
   for (auto& ap : aux_) {
@@ -135,15 +147,16 @@ void CalibrationBlocks::addTo(ceres::Problem* problem) {
                                o.aux_time_offset_prior_s, sd ? &sd->rotation : nullptr,
                                sd ? &sd->translation : nullptr, sd ? sd->time_offset : 0.0);
     if (a.gyro) {
-      problem->AddResidualBlock(new RotationPriorFactor(poseRotation(a.rotation), a.prior.rotation),
-                                nullptr, a.rotation);
+      addPrior(problem, trusted,
+               new RotationPriorFactor(poseRotation(a.rotation), a.prior.rotation), a.rotation);
     } else {
-      problem->AddResidualBlock(
+      addPrior(
+          problem, trusted,
           PosePriorFactor::fromStd(poseToSE3(a.extrinsic), a.prior.rotation, a.prior.translation),
-          nullptr, a.extrinsic);
+          a.extrinsic);
     }
-    problem->AddResidualBlock(timeOffsetPrior(a.time_offset[0], a.prior.time_offset), nullptr,
-                              a.time_offset);
+    addPrior(problem, trusted, timeOffsetPrior(a.time_offset[0], a.prior.time_offset),
+             a.time_offset);
   }
 }
 
@@ -155,8 +168,14 @@ Camera CalibrationBlocks::currentCamera(std::size_t c) const {
   return current;
 }
 
-std::vector<double*> CalibrationBlocks::batchHeldBlocks() {
+std::vector<double*> CalibrationBlocks::batchHeldBlocks(bool trusted) {
   std::vector<double*> out;
+  if (trusted) {
+    for (auto& cb : cameras_) {
+      out.push_back(cb->extrinsic);
+      out.push_back(cb->time_offset);
+    }
+  }
   for (auto& a : aux_) {
     out.push_back(a->extrinsicBlock());
     out.push_back(a->time_offset);
@@ -179,6 +198,33 @@ void CalibrationBlocks::covarianceBlocks(
       if (!problem.IsParameterBlockConstant(b)) blocks->emplace_back(b, b);
     }
   }
+}
+
+std::vector<TrustedCalibration::Block> CalibrationBlocks::trustedBlocks(
+    const ceres::Problem* problem) {
+  std::vector<TrustedCalibration::Block> out;
+  const auto add = [&](std::string name, double* x, int ambient, const ceres::Manifold* m) {
+    const bool estimated = problem != nullptr && problem->HasParameterBlock(x) &&
+                           !problem->IsParameterBlockConstant(x);
+    out.push_back(TrustedCalibration::make(std::move(name), x, ambient, m, estimated));
+  };
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    CameraBlocks& cb = *cameras_[c];
+    const std::string& name = rig_.cameras[c].name;
+    add(name + " extrinsic", cb.extrinsic, kPoseSize, &pose_manifold_);
+    add(name + " time offset", cb.time_offset, 1, nullptr);
+    add(name + " intrinsics", cb.intrinsics, kIntrinsicsSize, nullptr);
+  }
+  for (auto& a : aux_) {
+    const std::string& name = rig_.inertial[a->sensor].name;
+    if (a->gyro) {
+      add(name + " rotation", a->rotation, kRotationSize, &rotation_manifold_);
+    } else {
+      add(name + " extrinsic", a->extrinsic, kPoseSize, &pose_manifold_);
+    }
+    add(name + " time offset", a->time_offset, 1, nullptr);
+  }
+  return out;
 }
 
 void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCovariance& cov,

@@ -21,6 +21,7 @@
 #include "mvis/estimator/estimator.h"
 #include "mvis/factors/state_blocks.h"
 #include "mvis/rig/rig.h"
+#include "trusted_calibration.h"
 
 namespace mvis {
 namespace estimator_internal {
@@ -68,8 +69,12 @@ class CalibrationBlocks {
   CalibrationBlocks(const Rig& rig, const EstimatorOptions& options);
 
   // Adds gravity and every camera's and auxiliary sensor's blocks with their priors, constant
-  // where the options or holds say so.
-  void addTo(ceres::Problem* problem);
+  // where the options or holds say so. The priors are the configured ones, or where `trusted`
+  // has a covariance of a block (after a restart) that.
+  void addTo(ceres::Problem* problem, const TrustedCalibration& trusted);
+  // Every block with its name and values, for the trusted calibration; estimated where it is
+  // variable in `problem` (none when null).
+  std::vector<TrustedCalibration::Block> trustedBlocks(const ceres::Problem* problem);
 
   std::size_t cameras() const { return cameras_.size(); }
   CameraBlocks& camera(std::size_t c) { return *cameras_[c]; }
@@ -84,8 +89,10 @@ class CalibrationBlocks {
   TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras_[c]->time_offset[0]); }
   // Camera c with its current intrinsics.
   Camera currentCamera(std::size_t c) const;
-  // The blocks the first batch holds: the auxiliary sensors' and the cameras' intrinsics.
-  std::vector<double*> batchHeldBlocks();
+  // The blocks the first batch holds: the auxiliary sensors' and the cameras' intrinsics, and
+  // with `trusted` (a restart from a trusted calibration) the cameras' extrinsics and time
+  // offsets too.
+  std::vector<double*> batchHeldBlocks(bool trusted);
   // The estimated (non-constant) blocks whose covariance is wanted.
   void covarianceBlocks(const ceres::Problem& problem,
                         std::vector<std::pair<const double*, const double*>>* blocks) const;

@@ -3,7 +3,9 @@
 #include <ceres/normal_prior.h>
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
+#include <sstream>
 
 #include "mvis/estimator/initialization.h"
 
@@ -22,6 +24,13 @@ constexpr TimeNs kIntrinsicsAnchorSpanNs = 2000000;  // 2 ms
 constexpr TimeNs kPropagationNoiseSpanNs = 1000000;  // 1 ms
 // Frames of one camera waiting at most (the IMU or cam0 stopped: they must not pile up).
 constexpr std::size_t kMaxWaiting = 300;
+// The frame gate's baseline: the median of a camera's last frames' median residuals (about
+// 10 s of them, so that a clock drifting for a few seconds does not carry the baseline with it);
+// a frame beyond kBaselineRatio times it (and beyond kBaselineFloor sigma) is dropped.
+constexpr std::size_t kBaselineFrames = 300;
+constexpr std::size_t kBaselineMinFrames = 30;
+constexpr double kBaselineRatio = 3.0;
+constexpr double kBaselineFloor = 2.0;
 
 // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
 // when the covariance is not positive definite.
@@ -54,7 +63,8 @@ CameraFrames::CameraFrames(const Rig& rig, const EstimatorOptions& options, Wind
       landmarks_(landmarks),
       counters_(counters),
       waiting_(rig.cameras.size()),
-      last_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()) {
+      last_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()),
+      recent_(rig.cameras.size()) {
   if (options.huber_sigma > 0.0) huber_ = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
 }
 
@@ -81,11 +91,36 @@ TagFrame CameraFrames::takeBaseFrame() {
   return out;
 }
 
+void CameraFrames::forgetResiduals() {
+  for (auto& r : recent_) r.clear();
+  gate_sigma_ = 0.0;
+}
+
 void CameraFrames::clear() {
   base_.clear();
   for (auto& q : waiting_) q.clear();
   std::fill(last_.begin(), last_.end(), std::numeric_limits<TimeNs>::min());
+  last_entered_ = std::numeric_limits<TimeNs>::min();
+  // recent_ stays: a camera's residual level is the camera's, not the window's
+  // (forgetResiduals() when the calibration starts over from the configured one).
 }
+
+namespace {
+
+// The median over a frame's corners of their whitened residuals' norms at the current values.
+double medianResidual(const ceres::CostFunction& factor, const std::vector<double*>& blocks) {
+  std::vector<double> r(static_cast<std::size_t>(factor.num_residuals()));
+  if (r.size() < 2 ||
+      !factor.Evaluate(const_cast<double* const*>(blocks.data()), r.data(), nullptr)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  std::vector<double> norms;
+  for (std::size_t i = 0; i + 1 < r.size(); i += 2) norms.push_back(std::hypot(r[i], r[i + 1]));
+  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+  return norms[norms.size() / 2];
+}
+
+}  // namespace
 
 ceres::LossFunction* CameraFrames::tagLoss(int tags) {
   if (!huber_) return nullptr;
@@ -220,6 +255,38 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   const auto shared = !rig_.target ? TagReprojectionFactor::makeSharedCameraPose() : nullptr;
   for (auto& [obs, landmark] : groups) {
     TagReprojectionFactor* factor = make(std::move(obs));
+    if (landmark == nullptr && initialized && options_.frame_gate_sigma > 0.0) {
+      const double median = medianResidual(*factor, blocks);
+      // Against the camera's own recent frames too: a clock that drifts moves its corners
+      // gradually, long before they are gate_sigma_ off.
+      auto& recent = recent_[c];
+      double baseline = std::numeric_limits<double>::infinity();
+      if (recent.size() >= kBaselineMinFrames) {
+        std::vector<double> sorted(recent.begin(), recent.end());
+        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+        baseline = sorted[sorted.size() / 2];
+      }
+      const bool off = (gate_sigma_ > 0.0 && !(median <= gate_sigma_)) || !std::isfinite(median) ||
+                       (median > kBaselineRatio * baseline && median > kBaselineFloor);
+      if (!off) {
+        recent.push_back(median);
+        if (recent.size() > kBaselineFrames) recent.pop_front();
+      } else {
+        delete factor;
+        if (noise != nullptr) {
+          sk->propagation_noise.pop_back();
+          delete noise_prior;
+        }
+        ++counters_.frames_rejected;
+        std::ostringstream s;
+        s << rig_.cameras[c].name << ": frame dropped, its corners " << median
+          << " sigma (median) from where the estimate puts them, " << median / baseline
+          << "x its recent frames' (its clock jumped or drifts, the camera moved, or wrong "
+             "detections)";
+        warning_ = s.str();
+        return {};
+      }
+    }
     ceres::LossFunction* loss = nullptr;
     // The first batch (before `initialized`) always has the loss per frame: its residuals are
     // mostly the rough initial calibration's, which a per-corner loss would take for outliers
@@ -252,6 +319,7 @@ void CameraFrames::add(const TagFrame& frame, std::size_t k, bool initialized) {
   }
   owner->frames += 1;
   owner->corners += corners;
+  last_entered_ = std::max(last_entered_, window_.state(k).t);
 }
 
 void CameraFrames::attachWaiting(bool initialized) {

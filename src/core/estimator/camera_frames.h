@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "calibration_blocks.h"
@@ -49,6 +50,18 @@ class CameraFrames {
   // Places every waiting frame of the other cameras that falls inside the window.
   void attachWaiting(bool initialized);
   void clear();
+  // With a board and options.frame_gate_sigma > 0, frames whose corners' median whitened
+  // residual at the current estimate is 3 times the camera's recent frames' (and over 2 sigma)
+  // are dropped before they enter, and so are frames over `sigma` (0: no such bound; the
+  // estimator sets options.frame_gate_sigma once a calibration is trusted).
+  void setGate(double sigma) { gate_sigma_ = sigma; }
+  // The cameras' recent residuals and the bound are forgotten (the calibration starts over from
+  // the configured one: its residuals are not the cameras').
+  void forgetResiduals();
+  // The newest base time at which a frame entered the window (lowest TimeNs: none yet).
+  TimeNs lastEntered() const { return last_entered_; }
+  // The latest rejection's message (then empty).
+  std::string takeWarning() { return std::move(warning_); }
 
  private:
   struct Piece {
@@ -82,6 +95,10 @@ class CameraFrames {
   // of tags in the frame. The loss per corner lives in the factor (useCornerLoss).
   std::unique_ptr<ceres::LossFunction> huber_;
   std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses_;
+  double gate_sigma_ = 0.0;
+  std::vector<std::deque<double>> recent_;  // per camera, its entered frames' median residuals
+  std::string warning_;
+  TimeNs last_entered_ = std::numeric_limits<TimeNs>::min();
 };
 
 }  // namespace estimator_internal

@@ -3,6 +3,7 @@
 // estimator_startup.cpp.
 #include <ceres/normal_prior.h>
 
+#include <iomanip>
 #include <sstream>
 
 #include "estimator_impl.h"
@@ -16,6 +17,23 @@ namespace {
 
 // Window states closer than this to the previous one are not made (the frame is dropped).
 constexpr TimeNs kMinStateIntervalNs = 5000000;  // 5 ms
+// A frame or auxiliary reading stamped (in the base clock) further ahead of the base IMU's
+// newest reading, or further behind it, has a clock that jumped or restarted: it is dropped.
+constexpr TimeNs kMaxAheadNs = kNsPerSecond;
+constexpr TimeNs kMaxBehindNs = 10 * kNsPerSecond;
+// The failure checks' bounds on the newest state (EstimatorOptions::failure_step_sigma).
+constexpr double kMaxSpeed = 50.0;  // [m/s]
+// A failure found after a solve: the window starts over from a calibration trusted at least
+// this long before it (a slowly growing fault passes the checks for a while).
+constexpr TimeNs kFailureLookbackNs = 5 * kNsPerSecond;
+// A calibration is offered to be trusted only after the window has run on this much data: the
+// first seconds' covariances are taken far from the solution and are overconfident (restarted
+// from the calibration trusted after 2.5 s, a clean small-rig run failed the step test at 10
+// sigma a second later).
+constexpr double kTrustAfterS = 10.0;
+// Window states without any camera frame for this long: the window starts over.
+constexpr TimeNs kMaxBlindNs = kNsPerSecond;
+constexpr double kMaxBoardDistance = 1e3;  // [m]
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -34,7 +52,30 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       landmarks(rig.cameras.size()),
       aux(rig, options, window, calibration, intrinsics, monitor, counters),
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
-      startup(rig, options, calibration, imu, counters) {}
+      startup(rig, options, calibration, imu, counters) {
+  trusted.setConfigured(trustedBlocks(true));
+}
+
+std::vector<estimator_internal::TrustedCalibration::Block> Estimator::Impl::trustedBlocks(
+    bool configured) {
+  const ceres::Problem* problem = configured ? nullptr : window.problem();
+  auto out = calibration.trustedBlocks(problem);
+  auto more = intrinsics.trustedBlocks(problem);
+  out.insert(out.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
+  return out;
+}
+
+Status Estimator::Impl::plausibleStamp(const std::string& sensor, TimeNs t) {
+  if (imu.empty()) return Status::Ok();
+  const TimeNs ahead = t - imu.lastStamp();
+  if (ahead <= kMaxAheadNs && ahead >= -kMaxBehindNs) return Status::Ok();
+  ++counters.stamps_implausible;
+  std::ostringstream s;
+  s << sensor << ": stamped " << std::abs(toSeconds(ahead)) << " s "
+    << (ahead > 0 ? "ahead of " : "behind ") << rig.inertial[0].name
+    << "'s newest reading (its clock jumped or restarted?): dropped";
+  return Status::Error(s.str());
+}
 
 void Estimator::Impl::newProblem() {
   window.reset();
@@ -43,6 +84,10 @@ void Estimator::Impl::newProblem() {
 }
 
 Status Estimator::Impl::withWarning(Status s) {
+  if (!restart_note.empty()) {
+    aux.takeWarning();
+    return Status::Error(std::move(restart_note));
+  }
   std::string warning = aux.takeWarning();
   if (!s.ok() || warning.empty()) return s;
   return Status::Error(warning);
@@ -53,7 +98,13 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
     ++counters.aux_dropped;
     return Status::Error("reading of an unknown inertial sensor " + std::to_string(sensor));
   }
-  if (sensor != 0) return aux.add(sensor, raw, initialized);
+  if (sensor != 0) {
+    const Status plausible =
+        plausibleStamp(rig.inertial[sensor].name,
+                       raw.stamp_ns + fromSeconds(calibration.aux(sensor - 1).time_offset[0]));
+    if (!plausible.ok()) return plausible;
+    return aux.add(sensor, raw, initialized);
+  }
   if (!raw.gyro.allFinite() || !raw.accel.allFinite()) {
     ++counters.imu_non_finite;
     return Status::Error(rig.inertial[0].name + ": non-finite reading dropped");
@@ -62,14 +113,12 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
   const TimeNs last = imu.lastStamp();
   if (last != std::numeric_limits<TimeNs>::min() && m.stamp_ns <= last) {
     if (m.stamp_ns < last - kNsPerSecond) {
-      const double back = toSeconds(last - m.stamp_ns);
-      resetAll();
-      ++counters.resets;
-      imu.push(m);
       std::ostringstream s;
-      s << rig.inertial[0].name << ": time jumped back by " << back
-        << " s (bag restarted?): estimator reset";
-      return Status::Error(s.str());
+      s << rig.inertial[0].name << ": time jumped back by " << toSeconds(last - m.stamp_ns)
+        << " s (bag restarted?)";
+      restart(s.str(), m.stamp_ns);
+      imu.push(m);
+      return withWarning(Status::Ok());
     }
     ++counters.imu_out_of_order;
     return Status::Error(rig.inertial[0].name + ": reading out of order or repeated, dropped");
@@ -77,6 +126,15 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
   const bool gap = last != std::numeric_limits<TimeNs>::min() && imu.maxInterval() > 0.0 &&
                    toSeconds(m.stamp_ns - last) > imu.maxInterval();
   const double gap_s = gap ? toSeconds(m.stamp_ns - last) : 0.0;
+  if (gap && gap_s > options.imu_max_gap_s) {
+    ++counters.imu_gaps;
+    std::ostringstream s;
+    s << rig.inertial[0].name << ": no reading for " << gap_s << " s (longer than imu_max_gap_s "
+      << options.imu_max_gap_s << " s)";
+    restart(s.str(), m.stamp_ns);
+    imu.push(m);
+    return withWarning(Status::Ok());
+  }
   imu.push(m);
   process();
   propagate(m);
@@ -85,7 +143,7 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
     std::ostringstream s;
     s << rig.inertial[0].name << ": no reading for " << gap_s
       << " s; integrated across the gap with inflated noise";
-    return Status::Error(s.str());
+    return withWarning(Status::Error(s.str()));
   }
   return withWarning(Status::Ok());
 }
@@ -96,6 +154,9 @@ Status Estimator::Impl::addTagFrame(const TagFrame& frame) {
     ++counters.frames_too_few_tags;
     return Status::Ok();  // nothing wrong with the data, just nothing to use
   }
+  const Status plausible = plausibleStamp(rig.cameras[frame.camera].name,
+                                          frame.stamp_ns + calibration.timeOffsetNs(frame.camera));
+  if (!plausible.ok()) return plausible;
   if (!frames.markNewer(frame)) {
     ++counters.frames_out_of_order;
     return Status::Error(rig.cameras[frame.camera].name +
@@ -107,7 +168,8 @@ Status Estimator::Impl::addTagFrame(const TagFrame& frame) {
   }
   frames.enqueue(frame);
   process();
-  return withWarning(Status::Ok());
+  std::string rejected = frames.takeWarning();
+  return withWarning(rejected.empty() ? Status::Ok() : Status::Error(std::move(rejected)));
 }
 
 void Estimator::Impl::process() {
@@ -128,11 +190,21 @@ void Estimator::Impl::process() {
       frames.takeBaseFrame();
       continue;
     }
+    // The window's newest states have seen no camera for this long (frames missing, dropped
+    // or rejected): they rest on the readings alone, too long to trust.
+    if (initialized && frames.lastEntered() != std::numeric_limits<TimeNs>::min() &&
+        t - frames.lastEntered() > kMaxBlindNs) {
+      std::ostringstream s;
+      s << "no camera frame entered the window for " << toSeconds(t - frames.lastEntered()) << " s";
+      restart(s.str(), t);
+      continue;
+    }
     TagFrame taken = frames.takeBaseFrame();
     if (!initialized) {
       addInitFrame(std::move(taken), t);
     } else {
       const auto start = Clock::now();
+      window_data_s += toSeconds(t - window.newestTime());
       addState(taken, t);
       frames.attachWaiting(initialized);
       aux.extend();
@@ -141,12 +213,24 @@ void Estimator::Impl::process() {
         monitor.check(window.problem());  // holds what the motion cannot observe before solving
         summary = solve(options.max_iterations);
         frames_since_solve = 0;
+        const std::string why = failure();
+        if (!why.empty()) {
+          ++counters.failures;
+          restart(why, t, true);
+          continue;  // the frames waiting were dropped with the window
+        }
       } else {
         summary = window.summary();  // the new state as the IMU predicted it
         summary.usable = true;
       }
       if (static_cast<int>(window.size()) > options.window_size) marginalizeOldest();
       publish(summary, start);
+      if (!covariance_failure.empty()) {
+        ++counters.failures;
+        restart(std::move(covariance_failure), t, true);
+        covariance_failure.clear();
+        continue;
+      }
     }
     trimBuffers();
   }
@@ -291,7 +375,7 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
   calibration.covarianceBlocks(*problem, &blocks);
   intrinsics.covarianceBlocks(*problem, &blocks);
   if (!cov.compute(blocks, problem)) return Status::Error("covariance computation failed");
-  const auto tangent = [&](const double* block) {
+  const estimator_internal::TangentCovariance tangent = [&](const double* block) {
     return monitor.tangentCovariance(*problem, cov, block);
   };
   intrinsics.updateCovariance(*problem, tangent);
@@ -303,6 +387,21 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
     }
   }
   calibration.updateStd(*problem, cov, tangent);
+  // A candidate for the trusted calibration (trusted once the next one is offered).
+  if (initialized && window_data_s >= kTrustAfterS && failure().empty()) {
+    auto offered = trustedBlocks(false);
+    std::vector<const double*> estimated;
+    for (const auto& b : offered) {
+      if (b.estimated) estimated.push_back(b.x);
+    }
+    const std::string wrong =
+        trusted.offer(std::move(offered), monitor.jointTangentCovariance(*problem, cov, estimated),
+                      window.newestTime());
+    if (!wrong.empty() && options.failure_step_sigma > 0.0) {
+      covariance_failure = "estimate failed: " + wrong;
+    }
+    if (trusted.fromCovariance()) frames.setGate(options.frame_gate_sigma);
+  }
   return Status::Ok();
 }
 
@@ -330,11 +429,59 @@ void Estimator::Impl::trimBuffers() {
   aux.trim(from);
 }
 
+void Estimator::Impl::restart(const std::string& why, TimeNs when, bool failure) {
+  if (failure) {
+    trusted.distrust(when, kFailureLookbackNs);
+  } else {
+    trusted.dropPending();
+  }
+  resetAll();
+  trusted.restore();
+  if (!trusted.fromCovariance()) frames.forgetResiduals();
+  ++counters.restarts;
+  std::ostringstream s;
+  s << why << ": the window starts over from ";
+  if (trusted.fromCovariance()) {
+    s << "the trusted calibration (with its covariance";
+    if (when > trusted.time()) {
+      s << ", of " << std::fixed << std::setprecision(1) << toSeconds(when - trusted.time())
+        << " s before";
+    }
+    s << ")";
+  } else {
+    s << "the configured calibration";
+  }
+  status_text = s.str();
+  last_restart = restart_note = status_text;
+  last_restart_ns = when;
+}
+
+std::string Estimator::Impl::failure() const {
+  if (window.empty()) return "";
+  const State& newest = window.newest();
+  std::ostringstream s;
+  const double speed = Eigen::Vector3d(newest.speed_bias).norm();
+  const double distance = posePosition(newest.pose).norm();
+  if (!(speed <= kMaxSpeed)) {
+    s << rig.inertial[0].name << " estimated moving at " << speed << " m/s";
+  } else if (rig.target && !(distance <= kMaxBoardDistance)) {
+    s << rig.inertial[0].name << " estimated " << distance << " m from the board";
+  } else if (options.failure_step_sigma > 0.0 && trusted.fromCovariance()) {
+    std::string which;
+    const double step = trusted.largestStep(&which);
+    if (step > options.failure_step_sigma) {
+      s << which << " moved " << step << " sigma from the trusted calibration (failure_step_sigma "
+        << options.failure_step_sigma << ")";
+    }
+  }
+  return s.str().empty() ? "" : "estimate failed: " + s.str();
+}
+
 void Estimator::Impl::resetAll() {
   newProblem();
   imu.clear();
   frames.clear();
-  startup.clear();
+  startup.clear(trusted.fromCovariance());
   landmarks.resetPoseTags();
   aux.clear();
   monitor.clear();  // after newProblem(): the old problem no longer uses its manifolds
@@ -382,8 +529,12 @@ std::map<int, std::array<Eigen::Vector3d, 4>> Estimator::landmarks() const {
   return impl_->landmarks.corners();
 }
 const EstimatorCounters& Estimator::counters() const { return impl_->counters; }
+Estimator::Restart Estimator::lastRestart() const {
+  return {impl_->last_restart, impl_->last_restart_ns};
+}
 void Estimator::reset() {
-  impl_->resetAll();
+  impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());
+  impl_->restart_note.clear();  // the caller knows
   ++impl_->counters.resets;
 }
 

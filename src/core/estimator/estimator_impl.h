@@ -19,6 +19,7 @@
 #include "mvis/estimator/estimator.h"
 #include "observability_monitor.h"
 #include "startup.h"
+#include "trusted_calibration.h"
 #include "window.h"
 #include "window_prior.h"
 
@@ -43,6 +44,7 @@ struct Estimator::Impl {
   estimator_internal::AuxSensors aux;
   estimator_internal::CameraFrames frames;
   estimator_internal::Startup startup;
+  estimator_internal::TrustedCalibration trusted;
   // Output.
   UpdateCallback callback;
   PropagationCallback propagation_callback;
@@ -53,6 +55,11 @@ struct Estimator::Impl {
   } propagation;
   bool initialized = false;
   std::string status_text = "waiting for data";
+  std::string last_restart;        // why the window last started over ("" if it never did)
+  std::string restart_note;        // a restart not yet reported to the caller
+  double window_data_s = 0.0;      // seconds of data the window has run on, over every restart
+  std::string covariance_failure;  // what the latest covariance found wrong, for process()
+  TimeNs last_restart_ns = 0;      // base clock
   int solves_since_covariance = 0;
   int frames_since_solve = 0;
 
@@ -85,8 +92,20 @@ struct Estimator::Impl {
   // A new problem: everything in the old one (prior, landmarks) is forgotten.
   void newProblem();
   void resetAll();
+  // The window starts over from the trusted calibration (trusted_calibration.h), saying why;
+  // after a `failure` of the estimate from one trusted kFailureLookbackNs before it.
+  void restart(const std::string& why, TimeNs when, bool failure = false);
+  // The checks after a solve: why the estimate has gone wrong, or "".
+  std::string failure() const;
+  // Every calibration block for the trusted calibration, estimated where variable in the
+  // window's problem (none with `configured`).
+  std::vector<estimator_internal::TrustedCalibration::Block> trustedBlocks(bool configured);
+  // Whether a stamp of a sensor (in the base clock) is within reach of the base IMU's newest
+  // reading; else the message saying it is not.
+  Status plausibleStamp(const std::string& sensor, TimeNs t);
   Rig calibrationEstimate() const;
-  // Status for the caller: `s`, or the auxiliary sensors' pending warning if s is fine.
+  // Status for the caller: a restart not yet reported, else `s`, or the auxiliary sensors'
+  // pending warning if s is fine.
   Status withWarning(Status s);
 
   // ---- initialization (estimator_startup.cpp) ----------------------------------------------

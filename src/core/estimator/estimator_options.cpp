@@ -82,6 +82,7 @@ Status validate(const EstimatorOptions& o) {
                                {"aux_velocity_prior", o.aux_velocity_prior},
                                {"aux_timeout_s", o.aux_timeout_s},
                                {"aux_max_gap_s", o.aux_max_gap_s},
+                               {"imu_max_gap_s", o.imu_max_gap_s},
                                {"observability_horizon_s", o.observability_horizon_s},
                                {"imu_scale_misalignment_prior", o.imu_scale_misalignment_prior},
                                {"imu_gravity_sensitivity_prior", o.imu_gravity_sensitivity_prior},
@@ -94,6 +95,12 @@ Status validate(const EstimatorOptions& o) {
   }
   if (!(o.observability_ratio >= 0.0)) {
     return bad("observability_ratio", "must be zero (off) or positive");
+  }
+  if (!(o.failure_step_sigma == 0.0 || o.failure_step_sigma >= 3.0)) {
+    return bad("failure_step_sigma", "must be zero (off) or at least 3 (sigma)");
+  }
+  if (!(o.frame_gate_sigma == 0.0 || o.frame_gate_sigma >= 3.0)) {
+    return bad("frame_gate_sigma", "must be zero (off) or at least 3 (sigma)");
   }
   return Status::Ok();
 }

@@ -112,8 +112,12 @@ void Estimator::Impl::initialize() {
   Eigen::Map<Eigen::Vector3d>{calibration.gravity()} = g;
 
   newProblem();
-  calibration.addTo(window.problem());
-  intrinsics.addTo(window.problem());
+  calibration.addTo(window.problem(), trusted);
+  intrinsics.addTo(window.problem(), trusted);
+  std::vector<double*> trusted_blocks;
+  if (ceres::CostFunction* prior = trusted.jointPrior(&trusted_blocks)) {
+    window.problem()->AddResidualBlock(prior, nullptr, trusted_blocks);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     auto s = makeState(init[i].t);
     se3ToPose(init[i].T_G_I, s->pose);
@@ -159,7 +163,10 @@ void Estimator::Impl::initialize() {
   // and the marginalization prior kept it there.)
   ceres::Problem* problem = window.problem();
   std::vector<double*> held_for_batch;
-  std::vector<double*> batch_blocks = calibration.batchHeldBlocks();
+  // After a restart from a trusted calibration the batch settles the states only: ten frames
+  // cannot improve that calibration, and a fault still going on (a camera clock drifting) would
+  // pull it (a base-camera clock drifting by 0.5% left its time offset 4 sigma off).
+  std::vector<double*> batch_blocks = calibration.batchHeldBlocks(trusted.fromCovariance());
   for (std::size_t i = 0; i < intrinsics.sensors(); ++i) {
     if (intrinsics.values(i) != nullptr) batch_blocks.push_back(intrinsics.values(i));
   }

@@ -15,6 +15,7 @@ using L = ImuIntrinsicsLayout;
 
 ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions& options) {
   for (const auto& sensor : rig.inertial) {
+    names_.push_back(sensor.name);
     const bool gyro = sensor.type == InertialType::kGyroscope;
     const bool kalibr = sensor.model == ImuModel::kKalibr;
     const bool estimated = options.estimate_imu_intrinsics &&
@@ -76,16 +77,31 @@ ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions&
   }
 }
 
-void ImuIntrinsicsBlocks::addTo(ceres::Problem* problem) {
+void ImuIntrinsicsBlocks::addTo(ceres::Problem* problem, const TrustedCalibration& trusted) {
   using Vector24d = Eigen::Matrix<double, kImuIntrinsicsSize, 1>;
   for (auto& b : blocks_) {
     if (!b) continue;
     problem->AddParameterBlock(b->x, kImuIntrinsicsSize, b->manifold.get());
+    if (trusted.covers(b->x)) continue;  // the trusted calibration's joint prior stands instead
     problem->AddResidualBlock(
         new ceres::NormalPrior(Eigen::MatrixXd(b->prior_std.cwiseInverse().asDiagonal()),
                                Vector24d(Eigen::Map<const Vector24d>(b->x))),
         nullptr, b->x);
   }
+}
+
+std::vector<TrustedCalibration::Block> ImuIntrinsicsBlocks::trustedBlocks(
+    const ceres::Problem* problem) {
+  std::vector<TrustedCalibration::Block> out;
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    auto& b = blocks_[i];
+    if (!b) continue;
+    const bool estimated = problem != nullptr && problem->HasParameterBlock(b->x) &&
+                           !problem->IsParameterBlockConstant(b->x);
+    out.push_back(TrustedCalibration::make(names_[i] + " intrinsics", b->x, kImuIntrinsicsSize,
+                                           b->manifold.get(), estimated));
+  }
+  return out;
 }
 
 void ImuIntrinsicsBlocks::refreshBase() {

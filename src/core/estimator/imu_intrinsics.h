@@ -11,6 +11,7 @@
 
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "calibration_blocks.h"
@@ -39,7 +40,10 @@ class ImuIntrinsicsBlocks {
   ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions& options);
 
   // Adds the estimated sensors' blocks with their priors.
-  void addTo(ceres::Problem* problem);
+  void addTo(ceres::Problem* problem, const TrustedCalibration& trusted);
+  // Every estimated block with its name, for the trusted calibration (as
+  // CalibrationBlocks::trustedBlocks).
+  std::vector<TrustedCalibration::Block> trustedBlocks(const ceres::Problem* problem);
   std::size_t sensors() const { return blocks_.size(); }
   // Sensor i's block, or null when its intrinsics are not estimated.
   ImuIntrinsicsBlock* block(std::size_t i) { return blocks_[i].get(); }
@@ -71,6 +75,7 @@ class ImuIntrinsicsBlocks {
 
  private:
   std::vector<std::unique_ptr<ImuIntrinsicsBlock>> blocks_;
+  std::vector<std::string> names_;  // the sensors'
   std::vector<ImuCorrection> arrival_;
   ImuCorrection base_;
 };

@@ -507,6 +507,42 @@ Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& pr
          hold.directions * hold.variance.asDiagonal() * hold.directions.transpose();
 }
 
+Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
+    const ceres::Problem& problem, const BlockCovariance& cov,
+    const std::vector<const double*>& blocks) const {
+  Eigen::MatrixXd C;
+  if (!cov.joint(blocks, &C)) return Eigen::MatrixXd();
+  // Blocks partly held have the subspace's tangent in C: map each to its own tangent (B) and
+  // add the variance its held directions kept, as tangentCovariance does for one.
+  std::vector<Eigen::MatrixXd> maps;
+  std::vector<Eigen::MatrixXd> kept;
+  int rows = 0, cols = 0;
+  for (const double* block : blocks) {
+    const int t = problem.ParameterBlockTangentSize(block);
+    const auto h = holds_.find(block);
+    if (h == holds_.end() || !h->second.subspace) {
+      maps.push_back(Eigen::MatrixXd::Identity(t, t));
+      kept.push_back(Eigen::MatrixXd::Zero(t, t));
+    } else {
+      const Hold& hold = h->second;
+      maps.push_back(hold.subspace->basis());
+      kept.push_back(hold.directions * hold.variance.asDiagonal() * hold.directions.transpose());
+    }
+    rows += static_cast<int>(maps.back().rows());
+    cols += static_cast<int>(maps.back().cols());
+  }
+  if (cols != C.rows()) return Eigen::MatrixXd();
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(rows, cols), K = Eigen::MatrixXd::Zero(rows, rows);
+  int r = 0, c = 0;
+  for (std::size_t i = 0; i < maps.size(); ++i) {
+    B.block(r, c, maps[i].rows(), maps[i].cols()) = maps[i];
+    K.block(r, r, kept[i].rows(), kept[i].cols()) = kept[i];
+    r += static_cast<int>(maps[i].rows());
+    c += static_cast<int>(maps[i].cols());
+  }
+  return B * C * B.transpose() + K;
+}
+
 Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
                                                     Eigen::Matrix<double, 6, 6>* pose_cov) {
   // The pose depends on what is held (a camera's translation along the only rotation axis

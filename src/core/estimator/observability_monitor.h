@@ -53,6 +53,10 @@ class ObservabilityMonitor {
   // keep); NaN where the block was not in the computation.
   Eigen::MatrixXd tangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
                                     const double* block) const;
+  // The same for several blocks jointly (stacked in the order given, cross-covariances too);
+  // empty if one was not in the computation.
+  Eigen::MatrixXd jointTangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
+                                         const std::vector<const double*>& blocks) const;
   // The pose block's covariance with the held directions released at the uncertainty they kept
   // (replaces *pose_cov): with them constant it would be as if they were known.
   Status poseCovarianceWithHeld(ceres::Problem* problem, double* pose,

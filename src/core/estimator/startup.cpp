@@ -96,10 +96,10 @@ void Startup::alignClocks() {
   }
 }
 
-void Startup::clear() {
+void Startup::clear(bool clocks_known) {
   frames_.clear();
   for (auto& h : rotations_) h.clear();
-  clocks_aligned_ = false;
+  clocks_aligned_ = clocks_known;
 }
 
 }  // namespace estimator_internal

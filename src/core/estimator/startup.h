@@ -56,7 +56,9 @@ class Startup {
   void dropOlderHalf() { frames_.erase(frames_.begin(), frames_.begin() + frames_.size() / 2); }
   // What the clock alignment changed ("" if nothing).
   const std::string& clockMessage() const { return clock_message_; }
-  void clear();
+  // Everything collected is dropped; `clocks_known` (a restart from a trusted calibration):
+  // the clocks are not aligned again.
+  void clear(bool clocks_known = false);
 
  private:
   // The offset correction of camera c [s], or 0 when the data do not decide it.

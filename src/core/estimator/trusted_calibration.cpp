@@ -1,0 +1,208 @@
+#include "trusted_calibration.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "mvis/factors/tangent_prior_factor.h"
+
+namespace mvis {
+namespace estimator_internal {
+
+namespace {
+
+int tangentSize(const TrustedCalibration::Block& b) {
+  return b.manifold != nullptr ? b.manifold->TangentSize() : b.ambient;
+}
+
+// The tangent difference Minus(x, x0) of a block's values x from x0 (its values in a snapshot).
+Eigen::VectorXd minus(const TrustedCalibration::Block& b, const double* x, const double* x0) {
+  Eigen::VectorXd d(tangentSize(b));
+  if (b.manifold != nullptr) {
+    if (!b.manifold->Minus(x, x0, d.data())) d.setConstant(NAN);
+  } else {
+    for (int i = 0; i < b.ambient; ++i) d[i] = x[i] - x0[i];
+  }
+  return d;
+}
+
+// C = V diag(s^2) V^T; false if C is not a finite covariance. Directions the covariance calls
+// exactly known get a floor (1e-12 of the largest variance) so that whitening stays finite.
+bool factor(const Eigen::MatrixXd& C, Eigen::MatrixXd* V, Eigen::VectorXd* s) {
+  if (C.size() == 0 || !C.allFinite()) return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (C + C.transpose()));
+  if (eig.info() != Eigen::Success) return false;
+  const double largest = eig.eigenvalues().maxCoeff();
+  if (!(largest > 0.0)) return false;
+  *V = eig.eigenvectors();
+  *s = eig.eigenvalues().cwiseMax(1e-12 * largest).cwiseSqrt();
+  return true;
+}
+
+}  // namespace
+
+TrustedCalibration::Block TrustedCalibration::make(std::string name, double* x, int ambient,
+                                                   const ceres::Manifold* manifold,
+                                                   bool estimated) {
+  Block b;
+  b.name = std::move(name);
+  b.x = x;
+  b.ambient = ambient;
+  b.manifold = manifold;
+  b.values.assign(x, x + ambient);
+  b.estimated = estimated;
+  return b;
+}
+
+void TrustedCalibration::setConfigured(std::vector<Block> blocks) {
+  configured_ = Snapshot();
+  configured_.blocks = std::move(blocks);
+  configured_.valid = true;
+  history_.clear();
+  pending_ = Snapshot();
+}
+
+void TrustedCalibration::distrust(TimeNs t, TimeNs lookback) {
+  pending_ = Snapshot();
+  // The oldest stays: going back to the configured calibration would align the clocks again,
+  // on whatever the fault still does to them.
+  while (history_.size() > 1 && history_.back().time > t - lookback) history_.pop_back();
+}
+
+std::string TrustedCalibration::offer(std::vector<Block> blocks, const Eigen::MatrixXd& C,
+                                      TimeNs t) {
+  // The pending calibration is trusted if this one is where it said it would be: an estimate
+  // still converging (an early covariance is taken at a linearization point far from the
+  // solution, and is overconfident) or being pulled by a fault is not.
+  if (pending_.valid && step(pending_, &blocks, nullptr) <= kSettledSigma) {
+    history_.push_back(std::move(pending_));
+    if (history_.size() > 20) history_.pop_front();
+  }
+  pending_ = Snapshot();
+  Snapshot& p = pending_;
+  p.blocks = std::move(blocks);
+  p.time = t;
+  int n = 0;
+  for (std::size_t i = 0; i < p.blocks.size(); ++i) {
+    if (!p.blocks[i].estimated) continue;
+    p.joint.push_back(i);
+    n += tangentSize(p.blocks[i]);
+  }
+  if (n == 0 || C.rows() != n || C.cols() != n || !factor(C, &p.directions, &p.std)) {
+    pending_ = Snapshot();  // nothing to trust
+    return "";
+  }
+  int offset = 0;
+  for (std::size_t i : p.joint) {
+    const int t_i = tangentSize(p.blocks[i]);
+    Eigen::MatrixXd V;
+    Eigen::VectorXd s;
+    if (!factor(C.block(offset, offset, t_i, t_i), &V, &s)) {
+      pending_ = Snapshot();
+      return "";
+    }
+    p.marginal_directions.push_back(V);
+    p.marginal_std.push_back(s);
+    p.marginal.push_back(C.block(offset, offset, t_i, t_i));
+    offset += t_i;
+  }
+  p.valid = true;
+  if (!fromCovariance()) return "";
+  std::string which;
+  const double m = innovation(trusted(), p, &which);
+  if (m <= kInnovationSigma) return "";
+  std::ostringstream said;
+  said << which << " moved " << m << " sigma of what the data since the trusted calibration ("
+       << toSeconds(t - trusted().time) << " s before) can explain";
+  pending_ = Snapshot();
+  return said.str();
+}
+
+double TrustedCalibration::innovation(const Snapshot& from, const Snapshot& to,
+                                      std::string* which) {
+  double largest = 0.0;
+  for (std::size_t k = 0; k < from.joint.size(); ++k) {
+    const Block& b = from.blocks[from.joint[k]];
+    std::size_t j = 0;
+    while (j < to.joint.size() && to.blocks[to.joint[j]].x != b.x) ++j;
+    if (j == to.joint.size()) continue;
+    const Eigen::MatrixXd& C0 = from.marginal[k];
+    const Eigen::MatrixXd& C1 = to.marginal[j];
+    if (C0.rows() != C1.rows()) continue;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> gain(0.5 * ((C0 - C1) + (C0 - C1).transpose()));
+    if (gain.info() != Eigen::Success) continue;
+    const Eigen::MatrixXd S = gain.eigenvectors() * gain.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                                  gain.eigenvectors().transpose() +
+                              kInnovationFloor * C0;
+    Eigen::MatrixXd V;
+    Eigen::VectorXd sd;
+    if (!factor(S, &V, &sd)) continue;
+    const Eigen::VectorXd d = minus(b, to.blocks[to.joint[j]].values.data(), b.values.data());
+    const Eigen::VectorXd w = (V.transpose() * d).cwiseQuotient(sd).cwiseAbs();
+    const double m = w.allFinite() ? w.maxCoeff() : std::numeric_limits<double>::infinity();
+    if (m > largest) {
+      largest = m;
+      if (which != nullptr) *which = b.name;
+    }
+  }
+  return largest;
+}
+
+double TrustedCalibration::step(const Snapshot& from, const std::vector<Block>* to,
+                                std::string* which) {
+  double largest = 0.0;
+  for (std::size_t k = 0; k < from.joint.size(); ++k) {
+    const Block& b = from.blocks[from.joint[k]];
+    const double* x = b.x;  // the current values
+    if (to != nullptr) {
+      const auto it =
+          std::find_if(to->begin(), to->end(), [&](const Block& other) { return other.x == b.x; });
+      if (it == to->end()) continue;
+      x = it->values.data();
+    }
+    const Eigen::VectorXd w =
+        (from.marginal_directions[k].transpose() * minus(b, x, b.values.data()))
+            .cwiseQuotient(from.marginal_std[k])
+            .cwiseAbs();
+    const double m = w.allFinite() ? w.maxCoeff() : std::numeric_limits<double>::infinity();
+    if (m > largest) {
+      largest = m;
+      if (which != nullptr) *which = b.name;
+    }
+  }
+  return largest;
+}
+
+double TrustedCalibration::largestStep(std::string* which) const {
+  return step(trusted(), nullptr, which);
+}
+
+void TrustedCalibration::restore() const {
+  for (const Block& b : trusted().blocks) std::copy(b.values.begin(), b.values.end(), b.x);
+}
+
+bool TrustedCalibration::covers(const double* x) const {
+  const Snapshot& trusted_ = trusted();
+  for (std::size_t i : trusted_.joint) {
+    if (trusted_.blocks[i].x == x) return true;
+  }
+  return false;
+}
+
+ceres::CostFunction* TrustedCalibration::jointPrior(std::vector<double*>* blocks) const {
+  const Snapshot& trusted_ = trusted();
+  blocks->clear();
+  if (trusted_.joint.empty()) return nullptr;
+  std::vector<TangentPriorFactor::Block> prior;
+  for (std::size_t i : trusted_.joint) {
+    const Block& b = trusted_.blocks[i];
+    prior.push_back({b.manifold, b.values});
+    blocks->push_back(b.x);
+  }
+  return new TangentPriorFactor(std::move(prior), trusted().directions, trusted().std);
+}
+
+}  // namespace estimator_internal
+}  // namespace mvis
