@@ -40,6 +40,7 @@ mvis_core_test(test_tag_corners test/unit/test_tag_corners.cpp test/unit/board_i
 mvis_core_test(test_aprilgrid_real test/unit/test_aprilgrid_real.cpp)
 mvis_core_test(test_fuzz test/unit/test_fuzz.cpp)
 mvis_core_test(test_determinism test/unit/test_determinism.cpp)
+mvis_core_test(test_faults test/unit/test_faults.cpp)
 mvis_core_test(test_tag_checks test/unit/test_tag_checks.cpp)
 mvis_core_test(test_tag_frontend test/unit/test_tag_frontend.cpp)
 add_rostest(test/ros/tag_detections.test DEPENDENCIES mvis_ros mvis_node)
@@ -104,6 +105,23 @@ add_rostest(test/ros/replay_noboard.test
   ARGS data:=${MVIS_REPLAY_DATA} config:=${MVIS_NOBOARD_CONFIG}
        result:=${CMAKE_BINARY_DIR}/test_data/replay_noboard_result
   DEPENDENCIES mvis_ros mvis_node mvis_noboard_config)
+# The fault rostest's bag: 16 s of the same rig, with a 0.3 s hole in imu0 at 11 s, the bag
+# restarted at 13 s with its first 3 s, and garbled and repeated messages (mvis_faults).
+set(MVIS_FAULTS_DATA ${CMAKE_BINARY_DIR}/test_data/faults)
+add_custom_command(OUTPUT ${MVIS_FAULTS_DATA}/faulted.bag
+  COMMAND ${CMAKE_COMMAND} -E remove_directory ${MVIS_FAULTS_DATA}
+  COMMAND mvis_simulate --rig ${MVIS_REPLAY_RIG}
+          --sim ${PROJECT_SOURCE_DIR}/test/ros/faults_sim.yaml --output ${MVIS_FAULTS_DATA}
+          --detections
+  COMMAND mvis_faults ${MVIS_FAULTS_DATA}/sim.bag ${MVIS_FAULTS_DATA}/faulted.bag
+          gap:/imu0:11:0.3,restart:all:13:3,corrupt:/imu0:2:12:0.01,repeat:all:2:12:0.01,corrupt:/cam1/image_raw/tag_detections:2:12:0.02
+  DEPENDS mvis_simulate mvis_faults mvis_replay_data ${PROJECT_SOURCE_DIR}/test/ros/faults_sim.yaml)
+add_custom_target(mvis_faults_data DEPENDS ${MVIS_FAULTS_DATA}/faulted.bag)
+# After the replay bag's target, which makes the rig directory this one reads.
+add_dependencies(mvis_faults_data mvis_replay_data)
+add_dependencies(tests mvis_faults_data)
+add_rostest(test/ros/faults.test ARGS data:=${MVIS_FAULTS_DATA}
+  DEPENDENCIES mvis_ros mvis_node mvis_faults_data)
 mvis_core_test(test_initialization test/unit/test_initialization.cpp)
 mvis_core_test(test_estimate_log test/unit/test_estimate_log.cpp)
 mvis_core_test(test_evaluation test/unit/test_evaluation.cpp)
