@@ -314,8 +314,12 @@ void Estimator::Impl::propagate(const ImuMeasurement& m) {
 }
 
 SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
-  SolveSummary out =
-      window.solve(iterations, max_time_s > 0 ? max_time_s : options.max_solve_time_s);
+  // The calibration is eliminated last (Window::solve): every block of it, in a fixed order.
+  std::vector<double*> last;
+  for (const auto& b : trustedBlocks(true)) last.push_back(b.x);
+  last.push_back(calibration.gravity());
+  SolveSummary out = window.solve(
+      iterations, max_time_s > 0 ? max_time_s : options.max_solve_time_s, landmarks.blocks(), last);
   intrinsics.refreshBase();
   ++counters.solves;
   return out;
