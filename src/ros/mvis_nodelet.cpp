@@ -435,7 +435,8 @@ std::string MvisNodelet::saveResult() {
     dir = ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros";
     dir += "/mvis_result";
   }
-  estimator_->computeCovariance();
+  const Status covariance = estimator_->computeCovariance();
+  if (!covariance.ok()) NODELET_WARN_STREAM("mvis: " << covariance.message());
   const Status status =
       writeResultDirectory(dir, estimator_->calibration(), estimator_->trajectory(), estimate_log_);
   if (!status.ok()) return status.message();

@@ -245,7 +245,8 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
                          (missing.empty() ? "" : " (" + missing + ")"));
   }
   if (!missing.empty()) result.warnings.push_back(missing);
-  estimator->computeCovariance();
+  const Status covariance = estimator->computeCovariance();
+  if (!covariance.ok()) result.warnings.push_back(covariance.message());
   result.calibration = estimator->calibration();
   result.trajectory = estimator->trajectory();
   result.counters = estimator->counters();

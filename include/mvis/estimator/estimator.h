@@ -315,6 +315,8 @@ class Estimator {
   // The rig with the current calibration estimate; with standard deviations when a covariance
   // has been computed (computeCovariance, or every `covariance_every` solves).
   Rig calibration() const;
+  // Errors: the computation failed, or (the standard deviations updated all the same) the
+  // estimate failed the innovation test against the trusted calibration (trusted_calibration.h).
   Status computeCovariance();
   // Every state that has left the window, then the window's.
   std::vector<EstimatorState> trajectory() const;

@@ -22,7 +22,8 @@ constexpr TimeNs kMinStateIntervalNs = 5000000;  // 5 ms
 constexpr TimeNs kMaxAheadNs = kNsPerSecond;
 constexpr TimeNs kMaxBehindNs = 10 * kNsPerSecond;
 // The failure checks' bounds on the newest state (EstimatorOptions::failure_step_sigma).
-constexpr double kMaxSpeed = 50.0;  // [m/s]
+constexpr double kMaxSpeed = 50.0;         // [m/s]
+constexpr double kMaxBoardDistance = 1e3;  // [m]
 // A failure found after a solve: the window starts over from a calibration trusted at least
 // this long before it (a slowly growing fault passes the checks for a while).
 constexpr TimeNs kFailureLookbackNs = 5 * kNsPerSecond;
@@ -33,7 +34,6 @@ constexpr TimeNs kFailureLookbackNs = 5 * kNsPerSecond;
 constexpr double kTrustAfterS = 10.0;
 // Window states without any camera frame for this long: the window starts over.
 constexpr TimeNs kMaxBlindNs = kNsPerSecond;
-constexpr double kMaxBoardDistance = 1e3;  // [m]
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -521,7 +521,14 @@ void Estimator::setPropagationCallback(PropagationCallback callback) {
   impl_->propagation_callback = std::move(callback);
 }
 Rig Estimator::calibration() const { return impl_->calibrationEstimate(); }
-Status Estimator::computeCovariance() { return impl_->covariance(nullptr); }
+Status Estimator::computeCovariance() {
+  const Status s = impl_->covariance(nullptr);
+  if (!s.ok() || impl_->covariance_failure.empty()) return s;
+  // Nothing follows to restart on: say it (the standard deviations are updated all the same).
+  std::string failed = std::move(impl_->covariance_failure);
+  impl_->covariance_failure.clear();
+  return Status::Error(failed + "; the calibration is the current estimate all the same");
+}
 std::vector<EstimatorState> Estimator::trajectory() const {
   std::vector<EstimatorState> out = impl_->window.past();
   for (const auto& s : impl_->window.states()) out.push_back(s->toEstimate());
