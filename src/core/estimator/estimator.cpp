@@ -19,7 +19,9 @@ namespace {
 constexpr TimeNs kMinStateIntervalNs = 5000000;  // 5 ms
 // A frame or auxiliary reading stamped (in the base clock) further ahead of the base IMU's
 // newest reading, or further behind it, has a clock that jumped or restarted: it is dropped.
-constexpr TimeNs kMaxAheadNs = kNsPerSecond;
+// Not closer: a live node behind on its IMU queue (a slow solve without a board) saw frames
+// 1.2 s ahead of the readings it had, and 1 s here dropped them.
+constexpr TimeNs kMaxAheadNs = 10 * kNsPerSecond;
 constexpr TimeNs kMaxBehindNs = 10 * kNsPerSecond;
 // The failure checks' bounds on the newest state (EstimatorOptions::failure_step_sigma).
 constexpr double kMaxSpeed = 50.0;         // [m/s]
@@ -32,8 +34,10 @@ constexpr TimeNs kFailureLookbackNs = 5 * kNsPerSecond;
 // from the calibration trusted after 2.5 s, a clean small-rig run failed the step test at 10
 // sigma a second later).
 constexpr double kTrustAfterS = 10.0;
-// Window states without any camera frame for this long: the window starts over.
-constexpr TimeNs kMaxBlindNs = kNsPerSecond;
+// Window states without any camera frame for this long: the window starts over (a camera
+// silent for 5 s, or every frame dropped by the gate). Not shorter: a live node without a board,
+// behind on a loaded machine, lost frames for 1.1 s and started over for nothing.
+constexpr TimeNs kMaxBlindNs = 3 * kNsPerSecond;
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -314,12 +318,8 @@ void Estimator::Impl::propagate(const ImuMeasurement& m) {
 }
 
 SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
-  // The calibration is eliminated last (Window::solve): every block of it, in a fixed order.
-  std::vector<double*> last;
-  for (const auto& b : trustedBlocks(true)) last.push_back(b.x);
-  last.push_back(calibration.gravity());
-  SolveSummary out = window.solve(
-      iterations, max_time_s > 0 ? max_time_s : options.max_solve_time_s, landmarks.blocks(), last);
+  SolveSummary out =
+      window.solve(iterations, max_time_s > 0 ? max_time_s : options.max_solve_time_s);
   intrinsics.refreshBase();
   ++counters.solves;
   return out;

@@ -120,12 +120,6 @@ void Landmarks::clear() {
   ids_.clear();
 }
 
-std::vector<double*> Landmarks::blocks() const {
-  std::vector<double*> out;
-  for (const auto& [id, landmark] : landmarks_) out.push_back(landmark->x);
-  return out;
-}
-
 void Landmarks::resetPoseTags() { std::fill(pose_tag_.begin(), pose_tag_.end(), -1); }
 
 }  // namespace estimator_internal

@@ -42,8 +42,6 @@ class Landmarks {
   std::vector<double*> leaving(const std::deque<std::unique_ptr<State>>& states) const;
   // Forgets a landmark (after its block left the problem).
   void remove(double* block);
-  // Every landmark's block, by tag id.
-  std::vector<double*> blocks() const;
   // Every landmark's corners in the world frame, by tag id.
   std::map<int, std::array<Eigen::Vector3d, 4>> corners() const;
   // Forgets every landmark (the problem is replaced); resetPoseTags also every pose tag.

@@ -1,7 +1,5 @@
 #include "window.h"
 
-#include <unordered_set>
-
 namespace mvis {
 namespace estimator_internal {
 
@@ -32,39 +30,9 @@ void Window::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunct
   owner->residuals.push_back(std::move(r));
 }
 
-SolveSummary Window::solve(int iterations, double max_time_s, const std::vector<double*>& first,
-                           const std::vector<double*>& last) {
+SolveSummary Window::solve(int iterations, double max_time_s) {
   ceres::Solver::Options o;
   o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  // Every block its own group, in the order above (see the header).
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  std::unordered_set<const double*> placed(last.begin(), last.end());
-  int group = 0;
-  const auto place = [&](double* block) {
-    if (block != nullptr && problem_->HasParameterBlock(block) && placed.insert(block).second) {
-      ordering->AddElementToGroup(block, group++);
-    }
-  };
-  for (double* b : first) place(b);
-  for (const auto& st : states_) {
-    place(st->pose);
-    place(st->speed_bias);
-    for (const auto& a : st->aux) place(a ? a->x : nullptr);
-    for (const auto& noise : st->propagation_noise) place(noise.get());
-  }
-  std::vector<ceres::ResidualBlockId> residuals;
-  problem_->GetResidualBlocks(&residuals);
-  std::vector<double*> blocks;
-  for (const ceres::ResidualBlockId id : residuals) {
-    problem_->GetParameterBlocksForResidualBlock(id, &blocks);
-    for (double* b : blocks) place(b);
-  }
-  for (double* b : last) {
-    if (problem_->HasParameterBlock(b)) ordering->AddElementToGroup(b, group++);
-  }
-  if (ordering->NumElements() == problem_->NumParameterBlocks()) {
-    o.linear_solver_ordering = ordering;
-  }
   o.max_num_iterations = iterations;
   o.max_solver_time_in_seconds = max_time_s;
   o.num_threads = options_.threads;

@@ -42,14 +42,8 @@ class Window {
   // Adds a residual block, recorded with the state it is marginalized with.
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
                  std::vector<double*> blocks);
-  // Solves the problem: at most `iterations`, `max_time_s` seconds. The linear solver eliminates
-  // the blocks in an order fixed by the data, not by where they were allocated: `first` (the
-  // landmarks), the states in time order (pose, speed and biases, auxiliary states, propagation
-  // noise), any other block in the order the residuals first name it, then `last` (the
-  // calibration). Ceres's default ordering puts every block in one group, a std::set of their
-  // addresses, so that the elimination order would follow the allocator.
-  SolveSummary solve(int iterations, double max_time_s, const std::vector<double*>& first,
-                     const std::vector<double*>& last);
+  // Solves the problem: at most `iterations`, `max_time_s` seconds.
+  SolveSummary solve(int iterations, double max_time_s);
   // States, frames and corners in the window.
   SolveSummary summary() const;
   // Removes the oldest state: its residual blocks in their recorded order (Ceres's own removal
