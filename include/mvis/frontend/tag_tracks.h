@@ -11,14 +11,15 @@
 
 namespace mvis {
 
-struct CornerObservation {
+// One corner of a tag in one frame (not the factors' CornerObservation, which is on a board).
+struct TrackedCorner {
   TimeNs stamp_ns = 0;  // camera clock
   Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();
 };
 
 class TagTracks {
  public:
-  using Tracks = std::map<long, std::vector<CornerObservation>>;  // feature id -> observations
+  using Tracks = std::map<long, std::vector<TrackedCorner>>;  // feature id -> observations
 
   explicit TagTracks(std::size_t num_cameras) : cameras_(num_cameras) {}
 

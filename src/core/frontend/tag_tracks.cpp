@@ -10,10 +10,10 @@ bool TagTracks::add(const TagFrame& frame) {
   for (const auto& tag : frame.tags) {
     for (int c = 0; c < 4; ++c) {
       auto& track = tracks[featureId(tag.tag_id, c)];
-      const CornerObservation observation{frame.stamp_ns, tag.corners_px[c]};
+      const TrackedCorner observation{frame.stamp_ns, tag.corners_px[c]};
       const auto at = std::lower_bound(
           track.begin(), track.end(), frame.stamp_ns,
-          [](const CornerObservation& o, TimeNs stamp) { return o.stamp_ns < stamp; });
+          [](const TrackedCorner& o, TimeNs stamp) { return o.stamp_ns < stamp; });
       if (at != track.end() && at->stamp_ns == frame.stamp_ns) {
         *at = observation;
       } else {
@@ -29,7 +29,7 @@ void TagTracks::dropBefore(std::size_t camera, TimeNs stamp_ns) {
   for (auto it = tracks.begin(); it != tracks.end();) {
     auto& track = it->second;
     track.erase(track.begin(), std::lower_bound(track.begin(), track.end(), stamp_ns,
-                                                [](const CornerObservation& o, TimeNs stamp) {
+                                                [](const TrackedCorner& o, TimeNs stamp) {
                                                   return o.stamp_ns < stamp;
                                                 }));
     it = track.empty() ? tracks.erase(it) : std::next(it);
