@@ -64,6 +64,9 @@ void MvisNodelet::publishDiagnostics() {
     add("restarts", std::to_string(c.restarts));
     add("failures", std::to_string(c.failures));
     add("frames_rejected", std::to_string(c.frames_rejected));
+    add("corners_rejected", std::to_string(c.corners_rejected));
+    add("inconsistencies", std::to_string(c.inconsistencies));
+    add("sigma_inflation", std::to_string(estimator_->sigmaInflation()));
     add("stamps_implausible", std::to_string(c.stamps_implausible));
     const std::string restart = estimator_->lastRestart().reason;
     if (!restart.empty()) add("last_restart", restart);

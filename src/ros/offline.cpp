@@ -250,6 +250,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   result.calibration = estimator->calibration();
   result.trajectory = estimator->trajectory();
   result.counters = estimator->counters();
+  result.sigma_inflation = estimator->sigmaInflation();
   result.status = estimator->status();
   return result;
 }

@@ -7,6 +7,7 @@
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
+//              [--failure-step-sigma S] [--frame-gate-sigma S]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -41,6 +42,7 @@ int usage(const char* message) {
                "                    [--fixed-imu-linearization] [--propagation-noise]\n"
                "                    [--imu-step S]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
+               "                    [--failure-step-sigma S] [--frame-gate-sigma S]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --imu-chain F, --cam-chain F, --target F  other names for those files\n"
@@ -77,7 +79,13 @@ int usage(const char* message) {
                "                   cubic in between (default 0.0025; 0: as they come)\n"
                "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
                "                   intrinsics, gravity_sensitivity) at its configured value;\n"
-               "                   repeatable\n",
+               "                   repeatable\n"
+               "  --failure-step-sigma S  a calibration step from the trusted calibration\n"
+               "                   beyond S of its sigma is a failure and the window starts\n"
+               "                   over (default 10, 0: no failure checks; see config/mvis.yaml)\n"
+               "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
+               "                   where the trusted estimate puts them are dropped (default\n"
+               "                   10, 0: off)\n",
                message);
   return 2;
 }
@@ -95,6 +103,8 @@ int main(int argc, char** argv) {
   std::string imu_chain, cam_chain, target;
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
+  double failure_step_sigma = mvis::EstimatorOptions{}.failure_step_sigma;
+  double frame_gate_sigma = mvis::EstimatorOptions{}.frame_gate_sigma;
   bool estimate_intrinsics = false;
   bool estimate_imu_intrinsics = false, estimate_gravity_sensitivity = false;
   bool fixed_imu_linearization = false;
@@ -192,6 +202,11 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v)) return usage("--hold takes SENSOR.QUANTITY, e.g. cam1.intrinsics");
       hold.push_back(v);
+    } else if (arg == "--failure-step-sigma" || arg == "--frame-gate-sigma") {
+      std::string v;
+      const double s = value(&v) ? std::atof(v.c_str()) : -1.0;
+      if (!(s == 0.0 || s >= 3.0)) return usage((arg + " takes 0 (off) or sigmas >= 3").c_str());
+      (arg == "--failure-step-sigma" ? failure_step_sigma : frame_gate_sigma) = s;
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -247,6 +262,8 @@ int main(int argc, char** argv) {
     options.estimator.imu_intrinsics_linearization = mvis::IntrinsicsLinearization::kFixed;
   }
   options.estimator.hold = hold;
+  options.estimator.failure_step_sigma = failure_step_sigma;
+  options.estimator.frame_gate_sigma = frame_gate_sigma;
   options.estimator.interpolation =
       interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {
@@ -284,6 +301,12 @@ int main(int argc, char** argv) {
       "%ld detection messages, %ld dropped\n",
       r.bag_seconds, r.wall_seconds, r.bag_seconds / r.wall_seconds, r.imu_messages,
       r.image_messages, r.detection_messages, r.dropped_messages);
+  const mvis::EstimatorCounters& c = r.counters;
+  std::printf(
+      "failure checks: %ld restarts, %ld failures, %ld frames and %ld corners dropped, %ld "
+      "intrinsics inconsistencies; the calibration moves %.1fx what its sigmas allow\n",
+      c.restarts, c.failures, c.frames_rejected, c.corners_rejected, c.inconsistencies,
+      r.sigma_inflation);
   double update_total_ms = 0.0;
   for (double ms : r.update_ms) update_total_ms += ms;
   std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.1f s",

@@ -47,6 +47,7 @@ struct OfflineResult {
   std::vector<double> decode_ms;           // per compressed image (decoding)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
+  double sigma_inflation = 1.0;       // Estimator::sigmaInflation at the end
   std::string status;                 // the estimator's last word
   std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
   // Every dropped message and every complaint of the estimator (a gap, a reset, a sensor that

@@ -203,17 +203,18 @@ void CalibrationBlocks::covarianceBlocks(
 std::vector<TrustedCalibration::Block> CalibrationBlocks::trustedBlocks(
     const ceres::Problem* problem) {
   std::vector<TrustedCalibration::Block> out;
-  const auto add = [&](std::string name, double* x, int ambient, const ceres::Manifold* m) {
+  const auto add = [&](std::string name, double* x, int ambient, const ceres::Manifold* m,
+                       bool intrinsic = false) {
     const bool estimated = problem != nullptr && problem->HasParameterBlock(x) &&
                            !problem->IsParameterBlockConstant(x);
-    out.push_back(TrustedCalibration::make(std::move(name), x, ambient, m, estimated));
+    out.push_back(TrustedCalibration::make(std::move(name), x, ambient, m, estimated, intrinsic));
   };
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     CameraBlocks& cb = *cameras_[c];
     const std::string& name = rig_.cameras[c].name;
     add(name + " extrinsic", cb.extrinsic, kPoseSize, &pose_manifold_);
     add(name + " time offset", cb.time_offset, 1, nullptr);
-    add(name + " intrinsics", cb.intrinsics, kIntrinsicsSize, nullptr);
+    add(name + " intrinsics", cb.intrinsics, kIntrinsicsSize, nullptr, true);
   }
   for (auto& a : aux_) {
     const std::string& name = rig_.inertial[a->sensor].name;

@@ -107,17 +107,25 @@ void CameraFrames::clear() {
 
 namespace {
 
-// The median over a frame's corners of their whitened residuals' norms at the current values.
-double medianResidual(const ceres::CostFunction& factor, const std::vector<double*>& blocks) {
+// Each corner's whitened residual norm at the blocks' current values (empty if the factor
+// cannot be evaluated there).
+std::vector<double> cornerResiduals(const ceres::CostFunction& factor,
+                                    const std::vector<double*>& blocks) {
   std::vector<double> r(static_cast<std::size_t>(factor.num_residuals()));
   if (r.size() < 2 ||
       !factor.Evaluate(const_cast<double* const*>(blocks.data()), r.data(), nullptr)) {
-    return std::numeric_limits<double>::infinity();
+    return {};
   }
   std::vector<double> norms;
   for (std::size_t i = 0; i + 1 < r.size(); i += 2) norms.push_back(std::hypot(r[i], r[i + 1]));
-  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
-  return norms[norms.size() / 2];
+  return norms;
+}
+
+// The median of v (infinite if v is empty).
+double medianOf(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::infinity();
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
 }
 
 }  // namespace
@@ -254,9 +262,11 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   // A frame's tag factors share its camera pose (without a board; with one it has one factor).
   const auto shared = !rig_.target ? TagReprojectionFactor::makeSharedCameraPose() : nullptr;
   for (auto& [obs, landmark] : groups) {
-    TagReprojectionFactor* factor = make(std::move(obs));
-    if (landmark == nullptr && initialized && options_.frame_gate_sigma > 0.0) {
-      const double median = medianResidual(*factor, blocks);
+    const bool gated = landmark == nullptr && initialized && options_.frame_gate_sigma > 0.0;
+    TagReprojectionFactor* factor = make(gated ? obs : std::move(obs));
+    if (gated) {
+      const std::vector<double> norms = cornerResiduals(*factor, blocks);
+      const double median = medianOf(norms);
       // Against the camera's own recent frames too: a clock that drifts moves its corners
       // gradually, long before they are gate_sigma_ off.
       auto& recent = recent_[c];
@@ -285,6 +295,30 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
              "detections)";
         warning_ = s.str();
         return {};
+      }
+      // Once trusted, a corner beyond gate_sigma_ in a frame that is otherwise where the estimate
+      // puts it is a wrong detection: on the real EuRoC bag yac's detector put a few corners of
+      // cam0's frames 8-33 px off (at 27 s, the board leaving the image), and with the camera's
+      // intrinsics estimated they moved them 18 sigma in one step, per-corner Huber loss or not.
+      std::vector<CornerObservation> kept;
+      double worst = 0.0;
+      for (std::size_t i = 0; gate_sigma_ > 0.0 && i < norms.size() && i < obs.size(); ++i) {
+        if (norms[i] <= gate_sigma_) {
+          kept.push_back(obs[i]);
+        } else {
+          worst = std::max(worst, norms[i]);
+        }
+      }
+      if (worst > 0.0 && !kept.empty()) {
+        const std::size_t dropped = obs.size() - kept.size();
+        counters_.corners_rejected += static_cast<long>(dropped);
+        std::ostringstream s;
+        s << rig_.cameras[c].name << ": " << dropped << " corner(s) of a frame dropped, up to "
+          << worst << " sigma from where the estimate puts them (frame_gate_sigma " << gate_sigma_
+          << "; wrong detections)";
+        warning_ = s.str();
+        delete factor;
+        factor = make(std::move(kept));
       }
     }
     ceres::LossFunction* loss = nullptr;

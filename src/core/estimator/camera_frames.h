@@ -52,8 +52,9 @@ class CameraFrames {
   void clear();
   // With a board and options.frame_gate_sigma > 0, frames whose corners' median whitened
   // residual at the current estimate is 3 times the camera's recent frames' (and over 2 sigma)
-  // are dropped before they enter, and so are frames over `sigma` (0: no such bound; the
-  // estimator sets options.frame_gate_sigma once a calibration is trusted).
+  // are dropped before they enter, and so are frames over `sigma` and, in the frames kept,
+  // single corners over `sigma` (0: no such bound; the estimator sets options.frame_gate_sigma
+  // once a calibration is trusted).
   void setGate(double sigma) { gate_sigma_ = sigma; }
   // The cameras' recent residuals and the bound are forgotten (the calibration starts over from
   // the configured one: its residuals are not the cameras').

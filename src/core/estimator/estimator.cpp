@@ -3,8 +3,10 @@
 // estimator_startup.cpp.
 #include <ceres/normal_prior.h>
 
+#include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <utility>
 
 #include "estimator_impl.h"
 #include "mvis/factors/imu_factor.h"
@@ -92,6 +94,7 @@ Status Estimator::Impl::withWarning(Status s) {
     aux.takeWarning();
     return Status::Error(std::move(restart_note));
   }
+  if (!calibration_note.empty()) return Status::Error(std::exchange(calibration_note, ""));
   std::string warning = aux.takeWarning();
   if (!s.ok() || warning.empty()) return s;
   return Status::Error(warning);
@@ -398,11 +401,28 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
     for (const auto& b : offered) {
       if (b.estimated) estimated.push_back(b.x);
     }
-    const std::string wrong =
+    const auto verdict =
         trusted.offer(std::move(offered), monitor.jointTangentCovariance(*problem, cov, estimated),
                       window.newestTime());
-    if (!wrong.empty() && options.failure_step_sigma > 0.0) {
-      covariance_failure = "estimate failed: " + wrong;
+    if (!verdict.failure.empty() && options.failure_step_sigma > 0.0) {
+      covariance_failure = "estimate failed: " + verdict.failure;
+    }
+    if (!verdict.inconsistent.empty() && options.failure_step_sigma > 0.0) {
+      ++counters.inconsistencies;
+      calibration_note = verdict.inconsistent;
+    }
+    // Said when the inflation first passes 4, 16, 64 (sigma 2x, 4x, 8x too small).
+    const double lambda = trusted.inflation();
+    if (lambda >= 4.0 * said_inflation) {
+      while (lambda >= 4.0 * said_inflation) said_inflation *= 4.0;
+      std::ostringstream note;
+      note << "the calibration moves " << std::setprecision(2) << std::sqrt(lambda)
+           << "x more between covariances than its standard deviations allow (median "
+              "chi-square of its steps over their expectation): the model does not fit this "
+              "data (e.g. held intrinsics that are off, an unmodelled effect, corners with "
+              "correlated errors); the reported sigmas are too small by about that much, and the "
+              "failure checks allow for it";
+      calibration_note = note.str();
     }
     if (trusted.fromCovariance()) frames.setGate(options.frame_gate_sigma);
   }
@@ -475,7 +495,11 @@ std::string Estimator::Impl::failure() const {
     const double step = trusted.largestStep(&which);
     if (step > options.failure_step_sigma) {
       s << which << " moved " << step << " sigma from the trusted calibration (failure_step_sigma "
-        << options.failure_step_sigma << ")";
+        << options.failure_step_sigma;
+      if (trusted.inflation() > 1.0) {
+        s << "; sigma taken " << std::sqrt(trusted.inflation()) << "x larger";
+      }
+      s << ")";
     }
   }
   return s.str().empty() ? "" : "estimate failed: " + s.str();
@@ -523,6 +547,9 @@ void Estimator::setPropagationCallback(PropagationCallback callback) {
 Rig Estimator::calibration() const { return impl_->calibrationEstimate(); }
 Status Estimator::computeCovariance() {
   const Status s = impl_->covariance(nullptr);
+  if (s.ok() && impl_->covariance_failure.empty() && !impl_->calibration_note.empty()) {
+    return Status::Error(std::exchange(impl_->calibration_note, ""));
+  }
   if (!s.ok() || impl_->covariance_failure.empty()) return s;
   // Nothing follows to restart on: say it (the standard deviations are updated all the same).
   std::string failed = std::move(impl_->covariance_failure);
@@ -543,6 +570,7 @@ const EstimatorCounters& Estimator::counters() const { return impl_->counters; }
 Estimator::Restart Estimator::lastRestart() const {
   return {impl_->last_restart, impl_->last_restart_ns};
 }
+double Estimator::sigmaInflation() const { return std::sqrt(impl_->trusted.inflation()); }
 void Estimator::reset() {
   impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());
   impl_->restart_note.clear();  // the caller knows

@@ -59,6 +59,8 @@ struct Estimator::Impl {
   std::string restart_note;        // a restart not yet reported to the caller
   double window_data_s = 0.0;      // seconds of data the window has run on, over every restart
   std::string covariance_failure;  // what the latest covariance found wrong, for process()
+  std::string calibration_note;    // its sigmas not to be trusted on this data, unsaid yet
+  double said_inflation = 1.0;     // the largest inflation said so far (TrustedCalibration)
   TimeNs last_restart_ns = 0;      // base clock
   int solves_since_covariance = 0;
   int frames_since_solve = 0;

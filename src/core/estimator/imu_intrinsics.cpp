@@ -99,7 +99,7 @@ std::vector<TrustedCalibration::Block> ImuIntrinsicsBlocks::trustedBlocks(
     const bool estimated = problem != nullptr && problem->HasParameterBlock(b->x) &&
                            !problem->IsParameterBlockConstant(b->x);
     out.push_back(TrustedCalibration::make(names_[i] + " intrinsics", b->x, kImuIntrinsicsSize,
-                                           b->manifold.get(), estimated));
+                                           b->manifold.get(), estimated, true));
   }
   return out;
 }

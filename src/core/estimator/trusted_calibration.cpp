@@ -44,8 +44,8 @@ bool factor(const Eigen::MatrixXd& C, Eigen::MatrixXd* V, Eigen::VectorXd* s) {
 }  // namespace
 
 TrustedCalibration::Block TrustedCalibration::make(std::string name, double* x, int ambient,
-                                                   const ceres::Manifold* manifold,
-                                                   bool estimated) {
+                                                   const ceres::Manifold* manifold, bool estimated,
+                                                   bool intrinsic) {
   Block b;
   b.name = std::move(name);
   b.x = x;
@@ -53,6 +53,7 @@ TrustedCalibration::Block TrustedCalibration::make(std::string name, double* x, 
   b.manifold = manifold;
   b.values.assign(x, x + ambient);
   b.estimated = estimated;
+  b.intrinsic = intrinsic;
   return b;
 }
 
@@ -62,26 +63,22 @@ void TrustedCalibration::setConfigured(std::vector<Block> blocks) {
   configured_.valid = true;
   history_.clear();
   pending_ = Snapshot();
+  last_ = Snapshot();
+  moves_.clear();
+  inflation_ = 1.0;
 }
 
 void TrustedCalibration::distrust(TimeNs t, TimeNs lookback) {
   pending_ = Snapshot();
+  last_ = Snapshot();
   // The oldest stays: going back to the configured calibration would align the clocks again,
   // on whatever the fault still does to them.
   while (history_.size() > 1 && history_.back().time > t - lookback) history_.pop_back();
 }
 
-std::string TrustedCalibration::offer(std::vector<Block> blocks, const Eigen::MatrixXd& C,
-                                      TimeNs t) {
-  // The pending calibration is trusted if this one is where it said it would be: an estimate
-  // still converging (an early covariance is taken at a linearization point far from the
-  // solution, and is overconfident) or being pulled by a fault is not.
-  if (pending_.valid && step(pending_, &blocks, nullptr) <= kSettledSigma) {
-    history_.push_back(std::move(pending_));
-    if (history_.size() > 20) history_.pop_front();
-  }
-  pending_ = Snapshot();
-  Snapshot& p = pending_;
+TrustedCalibration::Verdict TrustedCalibration::offer(std::vector<Block> blocks,
+                                                      const Eigen::MatrixXd& C, TimeNs t) {
+  Snapshot p;
   p.blocks = std::move(blocks);
   p.time = t;
   int n = 0;
@@ -90,39 +87,78 @@ std::string TrustedCalibration::offer(std::vector<Block> blocks, const Eigen::Ma
     p.joint.push_back(i);
     n += tangentSize(p.blocks[i]);
   }
-  if (n == 0 || C.rows() != n || C.cols() != n || !factor(C, &p.directions, &p.std)) {
-    pending_ = Snapshot();  // nothing to trust
-    return "";
-  }
-  int offset = 0;
-  for (std::size_t i : p.joint) {
-    const int t_i = tangentSize(p.blocks[i]);
+  p.valid = n > 0 && C.rows() == n && C.cols() == n && factor(C, &p.directions, &p.std);
+  for (int offset = 0, k = 0; p.valid && k < static_cast<int>(p.joint.size()); ++k) {
+    const int t_k = tangentSize(p.blocks[p.joint[k]]);
     Eigen::MatrixXd V;
     Eigen::VectorXd s;
-    if (!factor(C.block(offset, offset, t_i, t_i), &V, &s)) {
-      pending_ = Snapshot();
-      return "";
-    }
+    p.valid = factor(C.block(offset, offset, t_k, t_k), &V, &s);
     p.marginal_directions.push_back(V);
     p.marginal_std.push_back(s);
-    p.marginal.push_back(C.block(offset, offset, t_i, t_i));
-    offset += t_i;
+    p.marginal.push_back(C.block(offset, offset, t_k, t_k));
+    offset += t_k;
   }
-  p.valid = true;
-  if (!fromCovariance()) return "";
-  std::string which;
-  const double m = innovation(trusted(), p, &which);
-  if (m <= kInnovationSigma) return "";
-  std::ostringstream said;
-  said << which << " moved " << m << " sigma of what the data since the trusted calibration ("
-       << toSeconds(t - trusted().time) << " s before) can explain";
+  // The pending calibration is trusted if this one is where it said it would be: an estimate
+  // still converging (an early covariance is taken at a linearization point far from the
+  // solution, and is overconfident) or being pulled by a fault is not.
+  if (pending_.valid && step(pending_, &p.blocks, nullptr, true) <= kSettledSigma) {
+    history_.push_back(std::move(pending_));
+    if (history_.size() > 20) history_.pop_front();
+  }
   pending_ = Snapshot();
-  return said.str();
+  if (!p.valid) {  // nothing to trust
+    last_ = Snapshot();
+    return {};
+  }
+  // The largest whitened innovation of the extrinsics and time offsets (0) and of the
+  // intrinsics (1), and what to say about it.
+  Verdict said;
+  double worst[2] = {0.0, 0.0};
+  for (const Innovation& i :
+       fromCovariance() ? innovations(trusted(), p) : std::vector<Innovation>{}) {
+    const double m = i.largest / std::sqrt(inflation_);
+    if (m <= worst[i.intrinsic]) continue;
+    worst[i.intrinsic] = m;
+    std::ostringstream out;
+    out << i.name << " moved " << m << " sigma of what the data since the trusted calibration ("
+        << toSeconds(t - trusted().time) << " s before) can explain";
+    if (inflation_ > 1.0) {
+      out << " (sigma taken " << std::sqrt(inflation_)
+          << "x larger: on this data the calibration moves that much more than its covariance "
+             "allows)";
+    }
+    if (i.intrinsic) {
+      out << ": its standard deviations are not to be trusted on this data (intrinsics move "
+             "with the images' coverage when the model does not fit the lens or the sensor; "
+             "not a failure, the window goes on)";
+    }
+    (i.intrinsic ? said.inconsistent : said.failure) = out.str();
+  }
+  if (worst[0] <= kInnovationSigma) said.failure.clear();
+  if (worst[1] <= kInnovationSigma) said.inconsistent.clear();
+  if (said.failure.empty() && last_.valid) {
+    std::vector<double> ratios;
+    for (const Innovation& i : innovations(last_, p)) ratios.push_back(i.ratio);
+    moves_.push_back(std::move(ratios));
+    if (moves_.size() > kMovesKept) moves_.pop_front();
+    // The lower median of every block's ratios over the offers kept.
+    std::vector<double> pooled;
+    for (const auto& offer : moves_) pooled.insert(pooled.end(), offer.begin(), offer.end());
+    if (!pooled.empty()) {
+      std::nth_element(pooled.begin(), pooled.begin() + (pooled.size() - 1) / 2, pooled.end());
+      inflation_ = std::clamp(pooled[(pooled.size() - 1) / 2], 1.0, kMaxInflation);
+    }
+  }
+  // A failed offer is neither trusted nor counted; it is the next one's reference all the same
+  // (a restart, if there is one, forgets it).
+  last_ = p;
+  if (said.failure.empty()) pending_ = std::move(p);
+  return said;
 }
 
-double TrustedCalibration::innovation(const Snapshot& from, const Snapshot& to,
-                                      std::string* which) {
-  double largest = 0.0;
+std::vector<TrustedCalibration::Innovation> TrustedCalibration::innovations(const Snapshot& from,
+                                                                            const Snapshot& to) {
+  std::vector<Innovation> out;
   for (std::size_t k = 0; k < from.joint.size(); ++k) {
     const Block& b = from.blocks[from.joint[k]];
     std::size_t j = 0;
@@ -141,20 +177,30 @@ double TrustedCalibration::innovation(const Snapshot& from, const Snapshot& to,
     if (!factor(S, &V, &sd)) continue;
     const Eigen::VectorXd d = minus(b, to.blocks[to.joint[j]].values.data(), b.values.data());
     const Eigen::VectorXd w = (V.transpose() * d).cwiseQuotient(sd).cwiseAbs();
-    const double m = w.allFinite() ? w.maxCoeff() : std::numeric_limits<double>::infinity();
-    if (m > largest) {
-      largest = m;
-      if (which != nullptr) *which = b.name;
+    Innovation i;
+    i.x = b.x;
+    i.intrinsic = b.intrinsic;
+    i.name = b.name;
+    if (w.allFinite()) {
+      // The chi-square distribution's median for n degrees of freedom (Wilson-Hilferty).
+      const double n = static_cast<double>(w.size());
+      const double median = n * std::pow(1.0 - 2.0 / (9.0 * n), 3);
+      i.largest = w.maxCoeff();
+      i.ratio = w.squaredNorm() / median;
+    } else {
+      i.largest = i.ratio = std::numeric_limits<double>::infinity();
     }
+    out.push_back(std::move(i));
   }
-  return largest;
+  return out;
 }
 
 double TrustedCalibration::step(const Snapshot& from, const std::vector<Block>* to,
-                                std::string* which) {
+                                std::string* which, bool intrinsics) const {
   double largest = 0.0;
   for (std::size_t k = 0; k < from.joint.size(); ++k) {
     const Block& b = from.blocks[from.joint[k]];
+    if (b.intrinsic && !intrinsics) continue;
     const double* x = b.x;  // the current values
     if (to != nullptr) {
       const auto it =
@@ -166,7 +212,8 @@ double TrustedCalibration::step(const Snapshot& from, const std::vector<Block>* 
         (from.marginal_directions[k].transpose() * minus(b, x, b.values.data()))
             .cwiseQuotient(from.marginal_std[k])
             .cwiseAbs();
-    const double m = w.allFinite() ? w.maxCoeff() : std::numeric_limits<double>::infinity();
+    const double m = w.allFinite() ? w.maxCoeff() / std::sqrt(inflation_)
+                                   : std::numeric_limits<double>::infinity();
     if (m > largest) {
       largest = m;
       if (which != nullptr) *which = b.name;
@@ -176,7 +223,7 @@ double TrustedCalibration::step(const Snapshot& from, const std::vector<Block>* 
 }
 
 double TrustedCalibration::largestStep(std::string* which) const {
-  return step(trusted(), nullptr, which);
+  return step(trusted(), nullptr, which, false);
 }
 
 void TrustedCalibration::restore() const {

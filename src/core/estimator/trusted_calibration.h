@@ -28,6 +28,33 @@
 // 9 sigma away without the step test noticing (each trusted calibration within 3 sigma of the
 // last), and the innovation test caught it within a second.
 //
+// Real data moves the estimate more than its covariance allows (a model error: intrinsics 1%
+// off and held, an unmodelled effect, corners with correlated errors): on the real EuRoC bag
+// (test_real_euroc) the cameras' extrinsics moved 2-3.5 sigma between consecutive covariances
+// with the rough configuration (chi-square per degree of freedom 5-12), and still 1.5-3 with the
+// reference intrinsics, where mvis's simulator gives about one. Tests that take the covariances
+// at their word failed that clean recording 7 times in 36 s, and the restarts left the cameras
+// 0.1-0.2 deg further from the reference. So the tests are scaled by how much the calibration
+// moves on the data at hand, the inflation: each offer's innovation from the previous offer
+// (whitened as above, by C_previous - C_next) gives per block its chi-square over the
+// chi-square distribution's median for its dimension; the inflation is the lower median of
+// these ratios over every block and the last kMovesKept offers, at least 1, at most
+// kMaxInflation, and the step, settle and innovation tests divide their whitened components by
+// its square root. It is one number for the rig, since a model error acts on every sensor, while
+// a fault acts on one sensor's blocks, a minority of the pool; an offer that fails is not counted
+// (a fault does not raise the bar it failed). Measured: 1.0 on every offer of the simulated
+// fault suite but two (1.1, 1.6), so the suite's detections are unchanged; on the EuRoC bag 5-14
+// with the rough configuration, 3-5 with the reference intrinsics.
+//
+// A sensor's intrinsics (a camera's focal lengths, centre and distortion, an IMU's scale,
+// misalignment and gravity sensitivity) are tested but never a failure: when the model does not
+// fit (radtan on EuRoC's wide lenses), what they settle on depends on which part of the image
+// the board has covered, and on the EuRoC bag cam0's k1 jumped by 16 of its sigma within 1.5 s
+// (towards the reference's value) when the board first reached the image's border; a restart
+// would go back to the distortion fitted to the centre. Their step beyond kInnovationSigma is
+// said (Verdict::inconsistent) and the window goes on. No fault in the suite moves intrinsics
+// alone; wrong corners are the frame gate's (camera_frames.h).
+//
 // After a restart the blocks with a trusted covariance get it as one joint prior instead of
 // their configured ones (TangentPriorFactor, centred on the trusted values), cross-covariances
 // included: with per-block priors the cameras' common translation (strongly correlated between
@@ -62,30 +89,43 @@ class TrustedCalibration {
     const ceres::Manifold* manifold = nullptr;  // the block's own (null: Euclidean)
     std::vector<double> values;
     bool estimated = false;  // in the covariance (not constant)
+    // A sensor's intrinsics: its steps are reported, never a failure (see the header).
+    bool intrinsic = false;
   };
 
   // The configured calibration: its blocks' values (no covariance), trusted until one is.
   void setConfigured(std::vector<Block> blocks);
   // A calibration at base time t with the joint tangent covariance C of its estimated blocks
   // (stacked in their order). The previous offer becomes trusted unless a failure came since.
-  // Returns why this one is wrong ("" if it is not): its step from the trusted calibration
-  // beyond kInnovationSigma of what the data between them can explain (see the header).
-  std::string offer(std::vector<Block> blocks, const Eigen::MatrixXd& C, TimeNs t);
+  // Returns why this one is wrong, if it is: an extrinsic's or time offset's step from the
+  // trusted calibration beyond kInnovationSigma of what the data between them can explain (a
+  // failure), or an intrinsics block's (inconsistent: said, not a failure; see the header).
+  struct Verdict {
+    std::string failure;
+    std::string inconsistent;
+  };
+  Verdict offer(std::vector<Block> blocks, const Eigen::MatrixXd& C, TimeNs t);
   // A failure was found at base time t: the pending offer is dropped, and so is every trusted
   // calibration newer than t - lookback but the oldest (a fault that grows slowly, a clock
   // drifting, passes the checks for a while before it fails them).
   void distrust(TimeNs t, TimeNs lookback);
   // A gap or jump in the data (nothing wrong with the estimate): only the pending offer goes.
-  void dropPending() { pending_ = Snapshot(); }
+  void dropPending() {
+    pending_ = Snapshot();
+    last_ = Snapshot();
+  }
   // A block entry with the block's current values.
   static Block make(std::string name, double* x, int ambient, const ceres::Manifold* manifold,
-                    bool estimated);
+                    bool estimated, bool intrinsic = false);
 
   bool fromCovariance() const { return trusted().joint.size() > 0; }
   TimeNs time() const { return trusted().time; }
-  // The largest whitened step component of any block with a covariance (whitened by its own
-  // marginal covariance); its block's name.
+  // The largest whitened step component of any extrinsic or time offset with a covariance
+  // (whitened by its own marginal covariance, over the square root of the inflation); its
+  // block's name.
   double largestStep(std::string* which) const;
+  // How much more the calibration moves than its covariance allows (see the header), >= 1.
+  double inflation() const { return inflation_; }
   // Writes the trusted values into the blocks.
   void restore() const;
   // Whether a block's configured prior gives way to the joint prior after a restart.
@@ -110,22 +150,37 @@ class TrustedCalibration {
 
   const Snapshot& trusted() const { return history_.empty() ? configured_ : history_.back(); }
   // The largest whitened step of the blocks' values in `to` (null: their current values) from
-  // `from`'s, by `from`'s marginal covariances.
-  static double step(const Snapshot& from, const std::vector<Block>* to, std::string* which);
+  // `from`'s, by `from`'s marginal covariances, over the square root of the inflation; its
+  // block's name. Intrinsics blocks count only if `intrinsics`.
+  double step(const Snapshot& from, const std::vector<Block>* to, std::string* which,
+              bool intrinsics) const;
 
-  // The largest component of the step from `from` to `to` whitened by the covariance that step
-  // has if both are right, C_from - C_to (what the data in between added), floored at
+  // Per block in both: the step from `from` to `to` whitened by the covariance that step has if
+  // both are right, C_from - C_to (what the data in between added), floored at
   // kInnovationFloor C_from.
-  static double innovation(const Snapshot& from, const Snapshot& to, std::string* which);
+  struct Innovation {
+    const double* x = nullptr;
+    bool intrinsic = false;
+    std::string name;
+    double largest = 0.0;  // its largest component (absolute)
+    double ratio = 0.0;    // its chi-square over the chi-square distribution's median
+  };
+  static std::vector<Innovation> innovations(const Snapshot& from, const Snapshot& to);
 
   // An offer becomes trusted only if the next one is within this of it [sigma].
   static constexpr double kSettledSigma = 3.0;
   static constexpr double kInnovationSigma = 8.0;
   static constexpr double kInnovationFloor = 0.1;
+  static constexpr std::size_t kMovesKept = 10;
+  static constexpr double kMaxInflation = 100.0;
 
   Snapshot configured_;
   std::deque<Snapshot> history_;  // the trusted calibrations, oldest first (at most 20)
   Snapshot pending_;
+  Snapshot last_;  // the last offer, for the next one's innovation
+  // Per offer (the last kMovesKept that passed), every block's innovation ratio.
+  std::deque<std::vector<double>> moves_;
+  double inflation_ = 1.0;
 };
 
 }  // namespace estimator_internal

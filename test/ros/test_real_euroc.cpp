@@ -1,0 +1,116 @@
+// The failure checks on real data (test/data/real_euroc: 36 s of EuRoC's imu_april calibration
+// recording, yac's AprilGrid corners, EuRoC's reference calibration). A clean recording must not
+// raise a failure or restart the window: before the checks were scaled by how much the
+// calibration moves on the data (trusted_calibration.h), this bag raised 7 false failures with
+// its rough configuration and the restarts left the cameras 0.4-0.9 deg from the reference.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "mvis/rig/rig_io.h"
+#include "mvis/ros/offline.h"
+
+namespace mvis {
+namespace {
+
+const std::string kData = std::string(MVIS_SOURCE_DIR) + "/test/data/real_euroc";
+
+Rig load(const std::string& dir) {
+  auto rig = loadRig(dir);
+  EXPECT_TRUE(rig.ok()) << rig.status().message();
+  return rig.value();
+}
+
+// The configuration with the reference's intrinsics (the extrinsics and time shift stay rough).
+Rig withReferenceIntrinsics() {
+  Rig rig = load(kData + "/config");
+  const Rig reference = load(kData + "/reference");
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    rig.cameras[c].intrinsics = reference.cameras[c].intrinsics;
+    rig.cameras[c].distortion_coeffs = reference.cameras[c].distortion_coeffs;
+  }
+  return rig;
+}
+
+OfflineResult run(const Rig& guess, bool checks, bool intrinsics) {
+  OfflineOptions options;
+  options.estimator.max_solve_time_s = 1e3;  // as mvis_offline: no dependence on the load
+  options.estimator.init_solve_time_s = 1e3;
+  options.estimator.estimate_intrinsics = intrinsics;
+  if (!checks) options.estimator.failure_step_sigma = options.estimator.frame_gate_sigma = 0.0;
+  auto r = runOffline(guess, kData + "/imu_april_0-36s.bag", options);
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  return r.value();
+}
+
+// cam1's pose in cam0's frame: rotation [deg] and translation [mm] from the reference's.
+void relativeError(const Rig& estimate, double* rotation_deg, double* translation_mm) {
+  const Rig reference = load(kData + "/reference");
+  const auto relative = [](const Rig& rig) {
+    return rig.cameras[1].T_cam_imu * rig.cameras[0].T_cam_imu.inverse();
+  };
+  const SE3 e = relative(estimate), r = relative(reference);
+  *rotation_deg = Eigen::AngleAxisd(e.q * r.q.inverse()).angle() * 180.0 / M_PI;
+  *translation_mm = 1e3 * (e.p - r.p).norm();
+}
+
+void expectSame(const Rig& a, const Rig& b) {
+  for (std::size_t c = 0; c < a.cameras.size(); ++c) {
+    EXPECT_LT(
+        Eigen::AngleAxisd(a.cameras[c].T_cam_imu.q * b.cameras[c].T_cam_imu.q.inverse()).angle(),
+        1e-9);
+    EXPECT_LT((a.cameras[c].T_cam_imu.p - b.cameras[c].T_cam_imu.p).norm(), 1e-9);
+  }
+}
+
+// With the rough configuration (intrinsics ~1% off and held) the calibration moves up to 3.7x
+// more than its covariance allows (Estimator::sigmaInflation, 3.3 at the end); with the
+// reference intrinsics up to 2.3x. Either way no failure, no restart, no frame or corner
+// dropped, and the estimate is the one without the checks.
+TEST(RealEuroc, CleanRecordingRaisesNoFailure) {
+  for (const bool reference_intrinsics : {false, true}) {
+    SCOPED_TRACE(reference_intrinsics ? "reference intrinsics" : "rough configuration");
+    const Rig guess = reference_intrinsics ? withReferenceIntrinsics() : load(kData + "/config");
+    const OfflineResult on = run(guess, true, false);
+    const OfflineResult off = run(guess, false, false);
+    EXPECT_EQ(on.counters.failures, 0);
+    EXPECT_EQ(on.counters.restarts, 0);
+    EXPECT_EQ(on.counters.frames_rejected + on.counters.corners_rejected, 0);
+    expectSame(on.calibration, off.calibration);
+    double rotation_deg = 0.0, translation_mm = 0.0;
+    relativeError(on.calibration, &rotation_deg, &translation_mm);
+    std::printf("%s: cam0-cam1 %.3f deg %.2f mm from the reference\n",
+                reference_intrinsics ? "reference intrinsics" : "rough configuration", rotation_deg,
+                translation_mm);
+    if (reference_intrinsics) {
+      // Measured 0.020 deg / 0.22 mm (stereo PnP on the full run agrees with the reference to a
+      // median 0.25 deg / 4.6 mm per pair: the reference is not ground truth, but close).
+      EXPECT_LT(rotation_deg, 0.05);
+      EXPECT_LT(translation_mm, 0.5);
+    }
+  }
+}
+
+// With the cameras' intrinsics estimated from the rough start, cam0's distortion jumps (k1 by
+// 16 of its sigma within 1.5 s at 27 s, towards the reference's value) when the board reaches the
+// image's border, and a few of yac's corners there are 8-33 px off: the corners are dropped, the
+// jumps are said as inconsistent intrinsics, and nothing restarts (a restart would go back to
+// distortion fitted to the image's centre).
+TEST(RealEuroc, IntrinsicsJumpsAreSaidNotRestartedOn) {
+  const OfflineResult r = run(load(kData + "/config"), true, true);
+  EXPECT_EQ(r.counters.failures, 0);
+  EXPECT_EQ(r.counters.restarts, 0);
+  EXPECT_GT(r.counters.inconsistencies, 0);
+  EXPECT_GT(r.counters.corners_rejected, 0);
+  double rotation_deg = 0.0, translation_mm = 0.0;
+  relativeError(r.calibration, &rotation_deg, &translation_mm);
+  std::printf("estimated intrinsics: cam0-cam1 %.3f deg %.2f mm from the reference\n", rotation_deg,
+              translation_mm);
+  // Measured 0.025 deg / 1.5 mm (0.036 deg / 1.4 mm without any check).
+  EXPECT_LT(rotation_deg, 0.06);
+  EXPECT_LT(translation_mm, 3.0);
+}
+
+}  // namespace
+}  // namespace mvis
