@@ -137,9 +137,15 @@ void MvisNodelet::onInit() {
   in_.reset_service = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
 
   subscribeSensors();
-  out_.diagnostics_timer =
-      nh.createWallTimer(ros::WallDuration(options_.diagnostics_period_s),
-                         [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
+  // With a board its markers go out again with every diagnostics (latched as well): rviz drops a
+  // marker whose frame it cannot transform when it arrives (the board frame exists only once
+  // the estimator runs; on a replay the Tags display stayed in error, "Unknown reason for
+  // transform failure") and forgets every marker when the clock jumps back (a bag looped).
+  out_.diagnostics_timer = nh.createWallTimer(ros::WallDuration(options_.diagnostics_period_s),
+                                              [this](const ros::WallTimerEvent&) {
+                                                publishDiagnostics();
+                                                if (rig_.target) publishTags();
+                                              });
 }
 
 void MvisNodelet::stayDown(const std::string& reason) {
@@ -276,6 +282,16 @@ void MvisNodelet::onTagDetections(std::size_t camera, const mvis::TagDetectionAr
     return;
   }
   recordTags(camera, result.value());
+  // Without the image, what was kept drawn on a grey canvas of the camera's size (rviz's
+  // camera displays had nothing to show on a replay of detections).
+  auto& debug_pub = out_.debug_images[camera];
+  const auto& size = rig_.cameras[camera].resolution;
+  if (debug_pub.getNumSubscribers() > 0 && size[0] > 0 && size[1] > 0) {
+    const cv::Mat canvas(size[1], size[0], CV_8UC1, cv::Scalar(128));
+    debug_pub.publish(cv_bridge::CvImage(msg->header, sensor_msgs::image_encodings::BGR8,
+                                         drawTagFrame(canvas, result.value().frame))
+                          .toImageMsg());
+  }
 }
 
 void MvisNodelet::rejectCameraMessage(std::size_t camera, const std::string& why) {

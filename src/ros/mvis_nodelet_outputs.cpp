@@ -149,6 +149,7 @@ void MvisNodelet::publishTags() {
   squares.type = visualization_msgs::Marker::TRIANGLE_LIST;
   squares.action = visualization_msgs::Marker::ADD;
   squares.pose.orientation.w = 1.0;
+  squares.frame_locked = true;  // the board frame moves in the world frame as gravity is refined
   squares.scale.x = squares.scale.y = squares.scale.z = 1.0;
   squares.color.r = squares.color.g = squares.color.b = 0.1f;
   squares.color.a = 1.0f;
@@ -163,6 +164,7 @@ void MvisNodelet::publishTags() {
     for (int k : {0, 1, 2, 0, 2, 3}) squares.points.push_back(point(c[k]));
     visualization_msgs::Marker label;
     label.header = squares.header;
+    label.frame_locked = true;
     label.ns = "tag_ids";
     label.id = id;
     label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
