@@ -33,8 +33,8 @@
 // (test_real_euroc) the cameras' extrinsics moved 2-3.5 sigma between consecutive covariances
 // with the rough configuration (chi-square per degree of freedom 5-12), and still 1.5-3 with the
 // reference intrinsics, where mvis's simulator gives about one. Tests that take the covariances
-// at their word failed that clean recording 7 times in 36 s, and the restarts left the cameras
-// 0.1-0.2 deg further from the reference. So the tests are scaled by how much the calibration
+// at their word failed that clean recording 7 times in 36 s, and the restarts left a camera up
+// to 0.14 deg further from the reference than without them. So the tests are scaled by how much the calibration
 // moves on the data at hand, the inflation: each offer's innovation from the previous offer
 // (whitened as above, by C_previous - C_next) gives per block its chi-square over the
 // chi-square distribution's median for its dimension; the inflation is the lower median of
@@ -43,8 +43,8 @@
 // its square root. It is one number for the rig, since a model error acts on every sensor, while
 // a fault acts on one sensor's blocks, a minority of the pool; an offer that fails is not counted
 // (a fault does not raise the bar it failed). Measured: 1.0 on every offer of the simulated
-// fault suite but two (1.1, 1.6), so the suite's detections are unchanged; on the EuRoC bag 5-14
-// with the rough configuration, 3-5 with the reference intrinsics.
+// fault suite but two (1.1, 1.6), so the suite's detections are unchanged; on the EuRoC bag up
+// to 14 with the rough configuration, up to 5 with the reference intrinsics.
 //
 // A sensor's intrinsics (a camera's focal lengths, centre and distortion, an IMU's scale,
 // misalignment and gravity sensitivity) are tested but never a failure: when the model does not
