@@ -80,12 +80,14 @@ int usage(const char* message) {
                "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
                "                   intrinsics, gravity_sensitivity) at its configured value;\n"
                "                   repeatable\n"
-               "  --failure-step-sigma S  a calibration step from the trusted calibration\n"
-               "                   beyond S of its sigma is a failure and the window starts\n"
-               "                   over (default 10, 0: no failure checks; see config/mvis.yaml)\n"
+               "  --failure-step-sigma S  an extrinsic's or time offset's step from the\n"
+               "                   trusted calibration beyond S of its sigma (scaled by how\n"
+               "                   much the calibration moves on this data) is a failure and\n"
+               "                   the window starts over (default 10, 0: no failure checks;\n"
+               "                   see config/mvis.yaml)\n"
                "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
-               "                   where the trusted estimate puts them are dropped (default\n"
-               "                   10, 0: off)\n",
+               "                   where the trusted estimate puts them are dropped, and so\n"
+               "                   are single corners beyond it (default 10, 0: off)\n",
                message);
   return 2;
 }
