@@ -83,7 +83,7 @@ int usage(const char* message) {
                "  --failure-step-sigma S  an extrinsic's or time offset's step from the\n"
                "                   trusted calibration beyond S of its sigma (scaled by how\n"
                "                   much the calibration moves on this data) is a failure and\n"
-               "                   the window starts over (default 10, 0: no failure checks;\n"
+               "                   the window starts over (default 10, 0: no calibration checks;\n"
                "                   see config/mvis.yaml)\n"
                "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
                "                   where the trusted estimate puts them are dropped, and so\n"

@@ -195,7 +195,8 @@ struct EstimatorOptions {
   // covariance, the step whitened by what the data since the trusted calibration can explain
   // (its covariance minus the new one): beyond 8 a failure. Both in sigmas scaled by how much
   // the calibration moves on this data (Estimator::sigmaInflation). Intrinsics beyond 8 are said
-  // as inconsistent, not a failure (trusted_calibration.h). 0: every test off.
+  // as inconsistent, not a failure (trusted_calibration.h). 0: the calibration tests off (the
+  // speed and distance bounds stay).
   double failure_step_sigma = 10.0;
   // With a board, a camera frame whose corners' median residual at the current estimate is over
   // 3 times its camera's recent frames' (and over 2 sigma), or once a calibration is trusted

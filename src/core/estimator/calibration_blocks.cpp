@@ -205,9 +205,7 @@ std::vector<TrustedCalibration::Block> CalibrationBlocks::trustedBlocks(
   std::vector<TrustedCalibration::Block> out;
   const auto add = [&](std::string name, double* x, int ambient, const ceres::Manifold* m,
                        bool intrinsic = false) {
-    const bool estimated = problem != nullptr && problem->HasParameterBlock(x) &&
-                           !problem->IsParameterBlockConstant(x);
-    out.push_back(TrustedCalibration::make(std::move(name), x, ambient, m, estimated, intrinsic));
+    out.push_back(TrustedCalibration::make(std::move(name), x, ambient, m, problem, intrinsic));
   };
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     CameraBlocks& cb = *cameras_[c];

@@ -270,12 +270,9 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       // Against the camera's own recent frames too: a clock that drifts moves its corners
       // gradually, long before they are gate_sigma_ off.
       auto& recent = recent_[c];
-      double baseline = std::numeric_limits<double>::infinity();
-      if (recent.size() >= kBaselineMinFrames) {
-        std::vector<double> sorted(recent.begin(), recent.end());
-        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-        baseline = sorted[sorted.size() / 2];
-      }
+      const double baseline = recent.size() >= kBaselineMinFrames
+                                  ? medianOf(std::vector<double>(recent.begin(), recent.end()))
+                                  : std::numeric_limits<double>::infinity();
       const bool off = (gate_sigma_ > 0.0 && !(median <= gate_sigma_)) || !std::isfinite(median) ||
                        (median > kBaselineRatio * baseline && median > kBaselineFloor);
       if (!off) {
@@ -290,9 +287,9 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
         ++counters_.frames_rejected;
         std::ostringstream s;
         s << rig_.cameras[c].name << ": frame dropped, its corners " << median
-          << " sigma (median) from where the estimate puts them, " << median / baseline
-          << "x its recent frames' (its clock jumped or drifts, the camera moved, or wrong "
-             "detections)";
+          << " sigma (median) from where the estimate puts them";
+        if (std::isfinite(baseline)) s << ", " << median / baseline << "x its recent frames'";
+        s << " (its clock jumped or drifts, the camera moved, or wrong detections)";
         warning_ = s.str();
         return {};
       }

@@ -96,10 +96,8 @@ std::vector<TrustedCalibration::Block> ImuIntrinsicsBlocks::trustedBlocks(
   for (std::size_t i = 0; i < blocks_.size(); ++i) {
     auto& b = blocks_[i];
     if (!b) continue;
-    const bool estimated = problem != nullptr && problem->HasParameterBlock(b->x) &&
-                           !problem->IsParameterBlockConstant(b->x);
     out.push_back(TrustedCalibration::make(names_[i] + " intrinsics", b->x, kImuIntrinsicsSize,
-                                           b->manifold.get(), estimated, true));
+                                           b->manifold.get(), problem, true));
   }
   return out;
 }

@@ -44,15 +44,16 @@ bool factor(const Eigen::MatrixXd& C, Eigen::MatrixXd* V, Eigen::VectorXd* s) {
 }  // namespace
 
 TrustedCalibration::Block TrustedCalibration::make(std::string name, double* x, int ambient,
-                                                   const ceres::Manifold* manifold, bool estimated,
-                                                   bool intrinsic) {
+                                                   const ceres::Manifold* manifold,
+                                                   const ceres::Problem* problem, bool intrinsic) {
   Block b;
   b.name = std::move(name);
   b.x = x;
   b.ambient = ambient;
   b.manifold = manifold;
   b.values.assign(x, x + ambient);
-  b.estimated = estimated;
+  b.estimated =
+      problem != nullptr && problem->HasParameterBlock(x) && !problem->IsParameterBlockConstant(x);
   b.intrinsic = intrinsic;
   return b;
 }
@@ -178,7 +179,6 @@ std::vector<TrustedCalibration::Innovation> TrustedCalibration::innovations(cons
     const Eigen::VectorXd d = minus(b, to.blocks[to.joint[j]].values.data(), b.values.data());
     const Eigen::VectorXd w = (V.transpose() * d).cwiseQuotient(sd).cwiseAbs();
     Innovation i;
-    i.x = b.x;
     i.intrinsic = b.intrinsic;
     i.name = b.name;
     if (w.allFinite()) {

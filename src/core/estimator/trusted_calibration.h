@@ -34,9 +34,9 @@
 // with the rough configuration (chi-square per degree of freedom 5-12), and still 1.5-3 with the
 // reference intrinsics, where mvis's simulator gives about one. Tests that take the covariances
 // at their word failed that clean recording 7 times in 36 s, and the restarts left a camera up
-// to 0.14 deg further from the reference than without them. So the tests are scaled by how much the calibration
-// moves on the data at hand, the inflation: each offer's innovation from the previous offer
-// (whitened as above, by C_previous - C_next) gives per block its chi-square over the
+// to 0.14 deg further from the reference than without them. So the tests are scaled by how much the
+// calibration moves on the data at hand, the inflation: each offer's innovation from the previous
+// offer (whitened as above, by C_previous - C_next) gives per block its chi-square over the
 // chi-square distribution's median for its dimension; the inflation is the lower median of
 // these ratios over every block and the last kMovesKept offers, at least 1, at most
 // kMaxInflation, and the step, settle and innovation tests divide their whitened components by
@@ -69,6 +69,7 @@
 
 #include <ceres/cost_function.h>
 #include <ceres/manifold.h>
+#include <ceres/problem.h>
 
 #include <Eigen/Core>
 #include <deque>
@@ -114,9 +115,10 @@ class TrustedCalibration {
     pending_ = Snapshot();
     last_ = Snapshot();
   }
-  // A block entry with the block's current values.
+  // A block entry with the block's current values; estimated if `problem` (null: none, the
+  // configured calibration) has the block and does not hold it constant.
   static Block make(std::string name, double* x, int ambient, const ceres::Manifold* manifold,
-                    bool estimated, bool intrinsic = false);
+                    const ceres::Problem* problem, bool intrinsic = false);
 
   bool fromCovariance() const { return trusted().joint.size() > 0; }
   TimeNs time() const { return trusted().time; }
@@ -159,7 +161,6 @@ class TrustedCalibration {
   // both are right, C_from - C_to (what the data in between added), floored at
   // kInnovationFloor C_from.
   struct Innovation {
-    const double* x = nullptr;
     bool intrinsic = false;
     std::string name;
     double largest = 0.0;  // its largest component (absolute)
