@@ -66,6 +66,7 @@ void MvisNodelet::publishDiagnostics() {
     add("frames_rejected", std::to_string(c.frames_rejected));
     add("corners_rejected", std::to_string(c.corners_rejected));
     add("inconsistencies", std::to_string(c.inconsistencies));
+    add("held_intrinsics_misfits", std::to_string(c.held_intrinsics_misfits));
     add("sigma_inflation", std::to_string(estimator_->sigmaInflation()));
     add("stamps_implausible", std::to_string(c.stamps_implausible));
     const std::string restart = estimator_->lastRestart().reason;

@@ -26,6 +26,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("imu_max_gap", o.imu_max_gap_s, o.imu_max_gap_s);
   nh.param("failure_step_sigma", o.failure_step_sigma, o.failure_step_sigma);
   nh.param("frame_gate_sigma", o.frame_gate_sigma, o.frame_gate_sigma);
+  nh.param("held_intrinsics_p", o.held_intrinsics_p, o.held_intrinsics_p);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
   nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
@@ -84,6 +85,9 @@ std::string NodeletOptions::validate() const {
   }
   if (!(frame_gate_sigma == 0.0 || frame_gate_sigma >= 3.0)) {
     return "parameter ~frame_gate_sigma must be 0 (off) or >= 3";
+  }
+  if (!(held_intrinsics_p >= 0.0 && held_intrinsics_p < 0.5)) {
+    return "parameter ~held_intrinsics_p must be 0 (off) or a probability under 0.5";
   }
   if (aux_imu_model != "velocity_state" && aux_imu_model != "rigid_velocity") {
     return "parameter ~aux_imu_model must be 'velocity_state' or 'rigid_velocity', got '" +

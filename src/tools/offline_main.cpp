@@ -306,9 +306,10 @@ int main(int argc, char** argv) {
   const mvis::EstimatorCounters& c = r.counters;
   std::printf(
       "failure checks: %ld restarts, %ld failures, %ld frames and %ld corners dropped, %ld "
-      "intrinsics inconsistencies; the calibration moves %.1fx what its sigmas allow\n",
+      "intrinsics inconsistencies, %ld held gravity sensitivities refuted; the calibration "
+      "moves %.1fx what its sigmas allow\n",
       c.restarts, c.failures, c.frames_rejected, c.corners_rejected, c.inconsistencies,
-      r.sigma_inflation);
+      c.held_intrinsics_misfits, r.sigma_inflation);
   double update_total_ms = 0.0;
   for (double ms : r.update_ms) update_total_ms += ms;
   std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.1f s",

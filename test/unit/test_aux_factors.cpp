@@ -62,7 +62,15 @@ std::shared_ptr<ImuPreintegration> preintegrate(const InertialSensor& sensor,
   const auto samples =
       simulateImu(sensor, base, 0, a - fromSeconds(0.05), b + fromSeconds(0.05), o);
   std::vector<ImuMeasurement> m;
-  for (const auto& s : samples) m.push_back({s.stamp_ns, s.gyro, s.accel});
+  for (const auto& s : samples) {
+    m.push_back({s.stamp_ns, s.gyro, s.accel});
+    if (sensor.type != InertialType::kGyroscope) continue;
+    // A gyroscope's readings carry the specific force at it, as the estimator gives them
+    // (aux_sensors.h): here the true one.
+    Eigen::Vector3d w_i;
+    trueInertialMotion(sensor, base(toSeconds(s.stamp_ns) + sensor.time_offset), &w_i,
+                       &m.back().accel);
+  }
   auto at = [&](TimeNs t) {
     for (std::size_t k = 1; k < m.size(); ++k) {
       if (m[k].stamp_ns >= t) return interpolateMeasurement(m[k - 1], m[k], t);
@@ -224,7 +232,8 @@ struct GyroFixture {
   std::vector<const ceres::Manifold*> manifolds;
 };
 
-// `intrinsics`: as for auxFixture, with the Tw of Table 4 (a gyroscope has no Tg).
+// `intrinsics`: as for auxFixture, with the Tw and Tg of Table 4 (the gyroscope's readings
+// carry the specific force at it).
 GyroFixture gyroFixture(double td0_i, double td0_j, double k, bool intrinsics = false) {
   static const PoseManifold pose;
   static const RotationManifold rotation;
@@ -233,6 +242,7 @@ GyroFixture gyroFixture(double td0_i, double td0_j, double k, bool intrinsics = 
   std::vector<double> block;
   if (intrinsics) {
     gyro.intrinsics.Tw = test::tableFourIntrinsics().Tw;
+    gyro.intrinsics.Tg = test::tableFourIntrinsics().Tg;
     block = test::intrinsicsBlock(gyro.intrinsics);
     for (int n = 0; n < kImuIntrinsicsSize; ++n) block[n] += 1e-3 * k * std::sin(1.0 + n);
   }
@@ -241,7 +251,7 @@ GyroFixture gyroFixture(double td0_i, double td0_j, double k, bool intrinsics = 
   auto pre = preintegrate(gyro, trajectory, td0_i, td0_j, bg, Eigen::Vector3d::Zero());
   if (intrinsics) {
     f.factor = std::make_unique<GyroFactor>(pre, td0_i, td0_j, baseMotion(trajectory, kTi),
-                                            baseMotion(trajectory, kTj),
+                                            baseMotion(trajectory, kTj), ImuIntrinsicsFrame{},
                                             IntrinsicsLinearization::kReintegrate, block.data());
   } else {
     f.factor = std::make_unique<GyroFactor>(pre, td0_i, td0_j, baseMotion(trajectory, kTi),
@@ -298,9 +308,13 @@ TEST(GyroFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
   const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
   const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
-  // At the true Dw, as small as without it (ResidualAtTruthIsFarBelowNoise).
+  // At the true Dw and Tg, as small as without them (ResidualAtTruthIsFarBelowNoise).
   const GyroFixture truth = gyroFixture(kTrueOffset, kTrueOffset, 0.0, true);
   EXPECT_LT(maxAbs(test::evaluateResiduals(*truth.factor, truth.blocks)), 0.1);
+  // Tg as held at zero: the 1e-3-sized gravity sensitivity shows (~30 sigma over 0.1 s).
+  auto no_tg = truth.blocks;
+  for (int k = 0; k < 9; ++k) no_tg.back()[ImuIntrinsicsLayout::kTg + k] = 0.0;
+  EXPECT_GT(maxAbs(test::evaluateResiduals(*truth.factor, no_tg)), 1.0);
 }
 
 TEST(RotationPriorFactor, ResidualAndJacobian) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -100,9 +101,9 @@ IntrinsicsErrors intrinsicsErrors(const InertialSensor& truth, const InertialSen
     }
     return worst;
   };
-  e.sigma = ratio(x.Tw - t.Tw, est.std->Tw);
+  e.sigma = std::max(ratio(x.Tw - t.Tw, est.std->Tw), ratio(x.Tg - t.Tg, est.std->Tg));
   if (!gyro) {
-    e.sigma = std::max({e.sigma, ratio(x.Ta - t.Ta, est.std->Ta), ratio(x.Tg - t.Tg, est.std->Tg),
+    e.sigma = std::max({e.sigma, ratio(x.Ta - t.Ta, est.std->Ta),
                         ratio(dtheta, truth.model == ImuModel::kKalibr ? est.std->R_IMUtoGYRO
                                                                        : est.std->R_IMUtoACC)});
   }
@@ -328,6 +329,149 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   const Eigen::Matrix3d moved =
       estimate.inertial[0].intrinsics.Tw - run.guess.inertial[0].intrinsics.Tw;
   EXPECT_LT(std::abs(moved(2, 2)), 1e-4);
+}
+
+}  // namespace
+}  // namespace mvis
+
+namespace mvis {
+namespace {
+
+// Every calibrated element's |error| / sigma: cameras' and aux sensors' extrinsics and time
+// offsets (per axis), inertial intrinsics (every element with a sigma).
+std::vector<double> sigmaRatios(const Rig& truth, const Rig& estimate) {
+  std::vector<double> out;
+  const auto add = [&](const Eigen::MatrixXd& err, const Eigen::MatrixXd& sd) {
+    for (int k = 0; k < err.size(); ++k) {
+      if (sd(k) > 0.0) out.push_back(std::abs(err(k)) / sd(k));
+    }
+  };
+  for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
+    const CameraErrors e = errors(truth.cameras[c], estimate.cameras[c]);
+    for (int k = 0; k < 3; ++k) {
+      out.push_back(e.rotation_sigma_ratio[k]);
+      out.push_back(e.translation_sigma_ratio[k]);
+    }
+    out.push_back(e.time_offset_sigma_ratio);
+  }
+  for (std::size_t i = 0; i < truth.inertial.size(); ++i) {
+    const InertialSensor &t = truth.inertial[i], &x = estimate.inertial[i];
+    if (i > 0) {
+      const CameraErrors e = inertialErrors(t, x);
+      for (int k = 0; k < 3; ++k) {
+        out.push_back(e.rotation_sigma_ratio[k]);
+        if (t.type != InertialType::kGyroscope) out.push_back(e.translation_sigma_ratio[k]);
+      }
+      out.push_back(e.time_offset_sigma_ratio);
+    }
+    if (!x.std) continue;
+    add(x.intrinsics.Tw - t.intrinsics.Tw, x.std->Tw);
+    add(x.intrinsics.Tg - t.intrinsics.Tg, x.std->Tg);
+    if (t.type == InertialType::kGyroscope) continue;
+    add(x.intrinsics.Ta - t.intrinsics.Ta, x.std->Ta);
+    add(lie::logSO3(t.intrinsics.R_IMUtoACC.transpose() * x.intrinsics.R_IMUtoACC),
+        x.std->R_IMUtoACC);
+  }
+  return out;
+}
+
+// A cheap MEMS gyroscope's gravity sensitivity (issue 22): the gyroscope imu2 with Table 4's
+// Tw and a Tg of up to 3e-4 rad/s per m/s^2, which its configuration does not know (zero).
+void withGyroscopeTg(Rig* rig) {
+  withIntrinsics(rig);
+  for (auto& s : rig->inertial) {
+    if (s.type != InertialType::kGyroscope) continue;
+    s.intrinsics.Tg << -0.5e-4, 3e-4, 1e-4, 2e-4, -1e-4, -3e-4, 1.5e-4, 0.5e-4, 2.5e-4;
+  }
+}
+
+// Every sensor's Tg zero in truth and guess, held at zero for all of them: the held test's null.
+void withoutTg(Rig* rig) {
+  withIntrinsics(rig);
+  for (auto& s : rig->inertial) s.intrinsics.Tg.setZero();
+}
+
+struct TgRun {
+  Rig estimate;
+  std::vector<double> ratios;  // sigmaRatios
+  double rms = 0.0, worst = 0.0;
+  double gyro_tg = 0.0;  // imu2's largest |Tg error|
+  EstimatorCounters counters;
+  std::vector<std::pair<double, int>> held;  // per sensor: statistic, degrees of freedom
+};
+
+TgRun runTg(const SimRun& run, const EstimatorOptions& options, const char* what) {
+  TgRun out;
+  const auto estimator = runFrom(run.guess, run, options);
+  EXPECT_NE(estimator, nullptr);
+  if (estimator == nullptr) return out;
+  out.estimate = estimator->calibration();
+  out.counters = estimator->counters();
+  out.ratios = sigmaRatios(run.truth, out.estimate);
+  for (double r : out.ratios) {
+    out.rms += r * r;
+    out.worst = std::max(out.worst, r);
+  }
+  out.rms = std::sqrt(out.rms / static_cast<double>(out.ratios.size()));
+  out.gyro_tg = (out.estimate.inertial[2].intrinsics.Tg - run.truth.inertial[2].intrinsics.Tg)
+                    .cwiseAbs()
+                    .maxCoeff();
+  std::printf("%s: %zu elements, largest error/sigma %.2f, RMS %.2f; imu2 Tg off by %.2e; "
+              "restarts %ld, held Tg refuted %ld times; held Tg statistic:",
+              what, out.ratios.size(), out.worst, out.rms, out.gyro_tg, out.counters.restarts,
+              out.counters.held_intrinsics_misfits);
+  for (std::size_t i = 0; i < run.truth.inertial.size(); ++i) {
+    int dof = 0;
+    const double stat = estimator->heldIntrinsicsStatistic(i, &dof);
+    out.held.emplace_back(stat, dof);
+    std::printf(" %s %.1f (%d dof)", run.truth.inertial[i].name.c_str(), stat, dof);
+  }
+  std::printf("\n");
+  allErrors(run, out.estimate, what);
+  return out;
+}
+
+// Issue 22, item 1. Measured (seed 7, 30 s): 95 elements, largest error/sigma 2.43, RMS 1.10,
+// imu2's Tg within 0.94e-4 (at 60 s 0.49e-4; the 6-seed Monte Carlo of doc/results.md: 1.1e-4,
+// sigma 0.57e-4: the base IMU's own Tg is estimated too, and only the cameras tell the two
+// apart). Bounds: the largest of 95 |error|/sigma under 3.5 (its 97% quantile for a
+// consistent estimate), RMS in [0.7, 1.3] (the issue's), Tg 1.5e-4.
+// Held at zero instead, the error spreads (imu0's intrinsics 7.5 sigma off) with no step or
+// covariance check firing; the held test refutes it: statistic 63 at the end, over the bound of
+// 34 (9 degrees of freedom, p = 1e-4) from 24 s on. Under the null (every Tg zero and held) it
+// stays at 10.4 or below (7.3-8.9 at the end, about its mean of 9).
+TEST(Estimator, CalibratesGyroscopeGravitySensitivity) {
+  SimRun run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withGyroscopeTg);
+  perturbIntrinsics(&run.guess, 7, 1.0);
+  run.guess.inertial[2].intrinsics.Tg.setZero();
+  const EstimatorOptions options = intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0);
+  const TgRun estimated = runTg(run, options, "Tg estimated");
+  EXPECT_LT(estimated.worst, 3.5);
+  EXPECT_GT(estimated.rms, 0.7);
+  EXPECT_LT(estimated.rms, 1.3);
+  EXPECT_LT(estimated.gyro_tg, 1.5e-4);
+  EXPECT_EQ(estimated.counters.held_intrinsics_misfits, 0);
+
+  EstimatorOptions held_options = options;
+  held_options.hold.push_back("imu2.gravity_sensitivity");
+  const TgRun held = runTg(run, held_options, "imu2's Tg held at zero");
+  ASSERT_EQ(held.held.size(), 3u);
+  EXPECT_EQ(held.held[2].second, 9);
+  EXPECT_GT(held.held[2].first, 33.7);  // chi-square(9)'s quantile at 1 - 1e-4 (the default p)
+  EXPECT_GE(held.counters.held_intrinsics_misfits, 1);
+  EXPECT_EQ(held.counters.restarts, 0);  // said, not restarted on
+
+  SimRun null_run = simulate("sim_vi_rig", 30.0, 7, MotionKind::kHandheld, false, withoutTg);
+  perturbIntrinsics(&null_run.guess, 7, 1.0);
+  for (auto& s : null_run.guess.inertial) s.intrinsics.Tg.setZero();
+  EstimatorOptions null_options = options;
+  null_options.estimate_gravity_sensitivity = false;
+  const TgRun null = runTg(null_run, null_options, "every Tg zero and held");
+  EXPECT_EQ(null.counters.held_intrinsics_misfits, 0);
+  for (const auto& [stat, dof] : null.held) {
+    EXPECT_EQ(dof, 9);
+    EXPECT_LT(stat, 20.0);  // chi-square(9)'s 98% quantile
+  }
 }
 
 }  // namespace

@@ -41,13 +41,13 @@ TEST(ImuCorrection, CorrectedReadingsFollowTheCalibratedModel) {
     const ImuMeasurement c = correction.apply(raw, false);
     EXPECT_LT((c.accel - (a_I + b_a_c)).norm(), 1e-12) << k;
     EXPECT_LT((c.gyro - (w_I + b_g_c)).norm(), 1e-12) << k;
-    // A gyroscope (Tg zero): only the scale and misalignment.
-    ImuIntrinsics gyro_in = in;
-    gyro_in.Tg.setZero();
+    // A gyroscope: apply() corrects the scale and misalignment; its Tg term is -gravity a_I
+    // once the specific force a_I at it is known.
     ImuMeasurement gyro_raw;
-    gyro_raw.gyro = in.Tw * w_I + b_g;
-    const ImuMeasurement g = ImuCorrection(gyro_in).apply(gyro_raw, true);
-    EXPECT_LT((g.gyro - (w_I + in.Tw.inverse() * b_g)).norm(), 1e-12) << k;
+    gyro_raw.gyro = in.Tw * w_I + in.Tg * a_I + b_g;
+    const ImuMeasurement g = correction.apply(gyro_raw, true);
+    EXPECT_LT((g.gyro - correction.gravity * a_I - (w_I + in.Tw.inverse() * b_g)).norm(), 1e-12)
+        << k;
   }
   // Calibrated intrinsics change nothing.
   const ImuCorrection none;

@@ -206,6 +206,13 @@ struct EstimatorOptions {
   // in a frame kept is dropped (a wrong detection: on the EuRoC bag yac's detector put a few
   // corners 8-33 px off). 0: no frame or corner is dropped.
   double frame_gate_sigma = 10.0;
+  // While an inertial sensor's intrinsics are estimated with its gravity sensitivity Tg held
+  // (estimate_gravity_sensitivity off, or held by name), a score test over the last
+  // held_intrinsics_horizon_s [s] of its factors asks whether the data agree with the held Tg;
+  // beyond the chi-square's 1 - held_intrinsics_p quantile the sensor is said to misfit
+  // (counter held_intrinsics_misfits; src/core/estimator/inertial_fit.h). 0: not tested.
+  double held_intrinsics_horizon_s = 30.0;
+  double held_intrinsics_p = 1e-4;
 };
 
 // Checked at creation: a clear message naming the option.
@@ -290,6 +297,7 @@ struct EstimatorCounters {
   long frames_rejected = 0;     // frames far from where the estimate puts them (frame_gate_sigma)
   long corners_rejected = 0;    // single corners beyond frame_gate_sigma in frames kept
   long inconsistencies = 0;     // intrinsics moved beyond what their covariance allows
+  long held_intrinsics_misfits = 0;  // the data disagree with a held Tg (held_intrinsics_p)
   long stamps_implausible = 0;  // frames and aux readings stamped far from the base IMU's time
 };
 
@@ -349,6 +357,10 @@ class Estimator {
   // least 1; 1 until 10 s of data and three covariances): the failure checks are scaled by it.
   // 1.0 on mvis's simulator, 1.8-3.7 on the real EuRoC bag (test_real_euroc).
   double sigmaInflation() const;
+  // Inertial sensor i's score statistic for its held gravity sensitivity over the last
+  // held_intrinsics_horizon_s, and its degrees of freedom in *dof (0: nothing held and tested,
+  // or less than a full horizon of data; EstimatorOptions::held_intrinsics_p).
+  double heldIntrinsicsStatistic(std::size_t sensor, int* dof) const;
 
  private:
   struct Impl;

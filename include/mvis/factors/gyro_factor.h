@@ -15,8 +15,10 @@
 //
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], bias_i [3],
 // bias_j [3], extrinsic rotation [4] (the quaternion of T_i_b, RotationManifold),
-// time_offset [1], and with its intrinsics estimated its intrinsics block [24] (only Dw
-// enters, imu_reintegration.h). A gyroscope's translation does not enter: it is not calibrated
+// time_offset [1], and with its intrinsics estimated its intrinsics block [24] (Dw and the
+// gravity sensitivity Tg enter, imu_reintegration.h: the readings carry the specific force at
+// the gyroscope, aux_sensors.h; the rotation of the kalibr model is held, being the
+// extrinsic's). A gyroscope's translation does not enter: it is not calibrated
 // (report Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent
 // spaces (tangent lift convention of state_blocks.h).
 #pragma once
@@ -38,11 +40,12 @@ class GyroFactor final : public ceres::CostFunction {
   // `base_j`: the base motion at t_i, t_j.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j);
-  // With the intrinsics block as last parameter (`intrinsics0`: the linearization point of kFixed),
-  // as ImuFactor.
+  // With the intrinsics block as last parameter (`frame`: the sensor's model, rpng or kalibr;
+  // `intrinsics0`: the linearization point of kFixed), as ImuFactor.
   GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
              double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
-             IntrinsicsLinearization mode, const double* intrinsics0);
+             const ImuIntrinsicsFrame& frame, IntrinsicsLinearization mode,
+             const double* intrinsics0);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -58,6 +61,7 @@ class GyroFactor final : public ceres::CostFunction {
   BaseMotion base_i_, base_j_;
   Eigen::Matrix<double, 6, 6> sqrt_information_;
   bool intrinsics_ = false;
+  ImuIntrinsicsFrame frame_{Eigen::Matrix3d::Identity(), true, false};
   IntrinsicsLinearization mode_ = IntrinsicsLinearization::kReintegrate;
   ImuDeltas fixed_;  // kFixed
 };

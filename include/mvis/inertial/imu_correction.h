@@ -10,8 +10,9 @@
 //   b_a' = R_IMUtoACC^T Ta^-1 b_a,   b_g' = R_IMUtoGYRO^T Tw^-1 (b_g - Tg b_a'),
 // which are what the estimator's bias states then hold (they still walk randomly; the noise
 // densities change by the intrinsics' few parts per thousand, which is ignored). A gyroscope has
-// no accelerometer: w' = R_IMUtoGYRO^T Tw^-1 w_m, and its Tg must be zero (Estimator::create
-// refuses it).
+// no accelerometer: apply() gives w' = R_IMUtoGYRO^T Tw^-1 w_m, and the rest, -gravity a_I, is
+// subtracted once the specific force a_I at the gyroscope is known (the base IMU's brought to it,
+// src/core/estimator/aux_sensors.h).
 //
 // The intrinsics are taken as known here; estimating them is the re-integration's
 // (imu_reintegration.h).

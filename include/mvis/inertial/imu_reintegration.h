@@ -8,7 +8,10 @@
 //   [21..23] theta [rad]: R_ACCtoIMU = R0 Exp(theta), R0 = R_IMUtoACC^T of the configuration
 // so that a reading (w_m, a_m) with biases (b_g, b_a) corrects to (report Eq. 3-4)
 //   a = R_ACCtoIMU Da (a_m - b_a),   w = Dw (w_m - b_g - Tg a).
-// A gyroscope has no accelerometer: w = Dw (w_m - b_g); the rest of its block is unused.
+// A gyroscope has no accelerometer: w = Dw (w_m - b_g - Tg a) with a the specific force at the
+// gyroscope in its frame, given as the reading's accel (the base IMU's brought to it,
+// aux_sensors.h; zero when its Tg is not modelled); Da and theta are unused, and its deltas dp,
+// dv zero.
 // Identity intrinsics are Dw = Da = I, Tg = 0, theta = 0.
 //
 // The kalibr model (rig.h; ImuIntrinsicsFrame::kalibr) uses the same block for its own

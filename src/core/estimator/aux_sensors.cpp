@@ -2,6 +2,7 @@
 
 #include <ceres/normal_prior.h>
 
+#include <algorithm>
 #include <sstream>
 
 #include "imu_buffer.h"
@@ -12,11 +13,13 @@
 namespace mvis {
 namespace estimator_internal {
 
-AuxSensors::AuxSensors(const Rig& rig, const EstimatorOptions& options, Window& window,
-                       CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
-                       ObservabilityMonitor& monitor, EstimatorCounters& counters)
+AuxSensors::AuxSensors(const Rig& rig, const EstimatorOptions& options, const ImuBuffer& base,
+                       Window& window, CalibrationBlocks& calibration,
+                       ImuIntrinsicsBlocks& intrinsics, ObservabilityMonitor& monitor,
+                       EstimatorCounters& counters)
     : rig_(rig),
       options_(options),
+      base_(base),
       window_(window),
       calibration_(calibration),
       intrinsics_(intrinsics),
@@ -26,6 +29,10 @@ AuxSensors::AuxSensors(const Rig& rig, const EstimatorOptions& options, Window& 
     auto a = std::make_unique<Stream>();
     a->sensor = i;
     a->gyro = rig.inertial[i].type == InertialType::kGyroscope;
+    const ImuIntrinsicsBlock* b = intrinsics.block(i);
+    // With an intrinsics block even when Tg is held: the held value is tested (inertial_fit.h).
+    a->gravity_sensitive =
+        a->gyro && (!rig.inertial[i].intrinsics.Tg.isZero(0.0) || b != nullptr);
     a->block_size = a->gyro ? 3 : AuxImuFactor::auxBlockSize(options.aux_imu_model);
     a->cubic_interval_ns = cubicIntervalNs(rig.inertial[i], options.imu_integration_step_s);
     streams_.push_back(std::move(a));
@@ -118,8 +125,55 @@ std::shared_ptr<ImuPreintegration> AuxSensors::preintegrate(const Stream& a, Tim
   const InertialSensor& config = rig_.inertial[a.sensor];
   const double max_interval = config.update_rate > 0.0 ? 2.5 / config.update_rate : 0.0;
   auto pre = std::make_shared<ImuPreintegration>(config.noise, bg, ba, max_interval);
+  if (a.gravity_sensitive) {
+    std::vector<ImuMeasurement> with_force = readings;
+    if (!specificForce(a, &with_force)) return nullptr;
+    for (const auto& r : with_force) pre->add(r);
+    return pre;
+  }
   for (const auto& r : readings) pre->add(r);
   return pre;
+}
+
+bool AuxSensors::specificForce(const Stream& a, std::vector<ImuMeasurement>* readings) const {
+  const std::size_t idx = a.sensor - 1;
+  if (base_.empty() || window_.states().empty() || readings->empty()) return false;
+  const TimeNs td = fromSeconds(calibration_.aux(idx).time_offset[0]);
+  if (readings->front().stamp_ns + td < base_.firstStamp() ||
+      !base_.reaches(readings->back().stamp_ns + td)) {
+    return false;
+  }
+  Eigen::Matrix3d R_AI;
+  Eigen::Vector3d p_AI;
+  calibration_.aux(idx).extrinsicParts(&R_AI, &p_AI);
+  const Eigen::Vector3d p_IA = -R_AI.transpose() * p_AI;
+  // The base readings as stored (configured intrinsics applied), or raw while the base's are
+  // estimated: then corrected by the current estimate, the biases likewise.
+  const bool raw = intrinsics_.block(0) != nullptr;
+  const State& newest = *window_.states().back();
+  Eigen::Vector3d bg = newest.biasGyro(), ba = newest.biasAccel();
+  if (raw) intrinsics_.baseBiases(newest.biasGyro(), newest.biasAccel(), &bg, &ba);
+  const auto reading = [&](TimeNs t) {
+    ImuMeasurement m = base_.at(t);
+    return raw ? intrinsics_.baseCorrection().apply(m, false) : m;
+  };
+  const Eigen::Matrix3d& gravity = intrinsics_.arrivalCorrection(a.sensor).gravity;
+  for (auto& r : *readings) {
+    const TimeNs t = r.stamp_ns + td;
+    const ImuMeasurement m = reading(t);
+    const Eigen::Vector3d w = m.gyro - bg;
+    const Eigen::Vector3d alpha = base_.angularAcceleration(t);
+    r.accel = R_AI * (m.accel - ba + alpha.cross(p_IA) + w.cross(w.cross(p_IA)));
+    r.gyro -= gravity * r.accel;  // configured Tg (zero while it is estimated)
+  }
+  return true;
+}
+
+bool AuxSensors::needsBaseReadings() const {
+  for (const auto& a : streams_) {
+    if (a->gravity_sensitive) return true;
+  }
+  return false;
 }
 
 void AuxSensors::extend(Stream& a) {
@@ -310,13 +364,14 @@ void AuxSensors::addFactor(Stream& a, std::size_t k, std::shared_ptr<const ImuPr
                                    ai->x,    aj->x,          cal.rotation, cal.time_offset};
     ceres::CostFunction* cost = nullptr;
     if (intrinsics != nullptr) {
-      cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion, mode,
+      cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion,
+                            intrinsics_.block(a.sensor)->frame, mode,
                             intrinsics_.block(a.sensor)->initial);
       blocks.push_back(intrinsics);
     } else {
       cost = new GyroFactor(std::move(pre), ai->td0, aj->td0, si->motion, sj->motion);
     }
-    window_.addRecord(si, cost, nullptr, std::move(blocks));
+    window_.addRecord(si, cost, nullptr, std::move(blocks), static_cast<int>(a.sensor));
     return;
   }
   std::vector<double*> blocks = {si->pose,       si->speed_bias,  sj->pose,
@@ -332,7 +387,7 @@ void AuxSensors::addFactor(Stream& a, std::size_t k, std::shared_ptr<const ImuPr
     cost = new AuxImuFactor(options_.aux_imu_model, std::move(pre), ai->td0, aj->td0, si->motion,
                             sj->motion);
   }
-  window_.addRecord(si, cost, nullptr, std::move(blocks));
+  window_.addRecord(si, cost, nullptr, std::move(blocks), static_cast<int>(a.sensor));
 }
 
 void AuxSensors::trim(TimeNs from) {

@@ -5,9 +5,9 @@
 //
 // Owns: each sensor's reading buffer, whether it is said to have stopped, and its last bias
 // estimate; the aux states it makes (kept in the window's states, whose lifetime they share).
-// Asks of the others: the window (states, problem, factors), the sensors' calibration blocks and
-// gravity, their intrinsics blocks, and the observability monitor (it reports the readings it
-// integrates).
+// Asks of the others: the base IMU's readings (a gyroscope's gravity sensitivity), the window
+// (states, problem, factors), the sensors' calibration blocks and gravity, their intrinsics
+// blocks, and the observability monitor (it reports the readings it integrates).
 #pragma once
 
 #include <deque>
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "calibration_blocks.h"
+#include "imu_buffer.h"
 #include "imu_intrinsics.h"
 #include "observability_monitor.h"
 #include "window.h"
@@ -26,8 +27,8 @@ namespace estimator_internal {
 
 class AuxSensors {
  public:
-  AuxSensors(const Rig& rig, const EstimatorOptions& options, Window& window,
-             CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
+  AuxSensors(const Rig& rig, const EstimatorOptions& options, const ImuBuffer& base,
+             Window& window, CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
              ObservabilityMonitor& monitor, EstimatorCounters& counters);
 
   std::size_t size() const { return streams_.size(); }
@@ -43,6 +44,9 @@ class AuxSensors {
   // Drops readings before the window's oldest time `from` (base clock; lowest TimeNs max:
   // nothing to anchor to, two seconds are kept).
   void trim(TimeNs from);
+  // Whether a gyroscope needs the base IMU's readings over the whole window (its gravity
+  // sensitivity: specificForce()), not only from the newest state on.
+  bool needsBaseReadings() const;
   void clear();
   // A warning for the caller (a sensor left the window), once; empty if none.
   std::string takeWarning();
@@ -51,6 +55,10 @@ class AuxSensors {
   struct Stream {
     std::size_t sensor = 0;
     bool gyro = false;
+    // A gyroscope whose gravity sensitivity Tg is configured non-zero or has an intrinsics block
+    // (Tg estimated, or held and tested): its readings get the specific force at it
+    // (specificForce()).
+    bool gravity_sensitive = false;
     int block_size = 9;            // of its AuxState::x
     TimeNs cubic_interval_ns = 0;  // cubicIntervalNs of the sensor
     std::deque<ImuMeasurement> readings;
@@ -73,11 +81,23 @@ class AuxSensors {
   std::shared_ptr<ImuPreintegration> preintegrate(const Stream& a, TimeNs tau_a, TimeNs tau_b,
                                                   const Eigen::Vector3d& bg,
                                                   const Eigen::Vector3d& ba) const;
+  // Gives a gravity-sensitive gyroscope's readings (its clock) the specific force at the
+  // gyroscope in its frame as their accel, from the base IMU's readings at the same base time
+  // through the current extrinsic rotation and the lever arm (report Eq. 40's rigid body):
+  //   a_A = R_AI (a_I + alpha x p_IA + w x (w x p_IA)),  a_I = a'_m - b'_a,  w = w'_m - b'_g
+  // with the newest window state's base biases, alpha the base rate's slope over 20 ms and p_IA
+  // the gyroscope's position in {I}. Configured (held) Tg is subtracted here too (imu_correction.h).
+  // The specific force is data to the factors: its error (a base accelerometer bias of 0.1
+  // m/s^2, an extrinsic 1 deg off) moves Tg a by 3e-5 rad/s at Tg = 3e-4, under the gyroscope's
+  // white noise over any interval.
+  // False when the base readings do not cover the readings' times (yet).
+  bool specificForce(const Stream& a, std::vector<ImuMeasurement>* readings) const;
   // The factor between the sensor's states at window states k and k + 1.
   void addFactor(Stream& a, std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
 
   const Rig& rig_;
   const EstimatorOptions& options_;
+  const ImuBuffer& base_;
   Window& window_;
   CalibrationBlocks& calibration_;
   ImuIntrinsicsBlocks& intrinsics_;

@@ -56,9 +56,10 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       window(options),
       monitor(rig, options, calibration, intrinsics),
       landmarks(rig.cameras.size()),
-      aux(rig, options, window, calibration, intrinsics, monitor, counters),
+      aux(rig, options, imu, window, calibration, intrinsics, monitor, counters),
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
-      startup(rig, options, calibration, imu, counters) {
+      startup(rig, options, calibration, imu, counters),
+      inertial_fit(rig, options, intrinsics) {
   trusted.setConfigured(trustedBlocks(true));
 }
 
@@ -262,14 +263,14 @@ void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPrein
   double* block = intrinsics.values(0);
   if (block == nullptr) {
     window.addRecord(a, new ImuFactor(std::move(pre)), nullptr,
-                     {a->pose, a->speed_bias, b->pose, b->speed_bias, g});
+                     {a->pose, a->speed_bias, b->pose, b->speed_bias, g}, 0);
     return;
   }
   window.addRecord(
       a,
       new ImuFactor(std::move(pre), intrinsics.block(0)->frame,
                     options.imu_intrinsics_linearization, intrinsics.block(0)->initial),
-      nullptr, {a->pose, a->speed_bias, b->pose, b->speed_bias, g, block});
+      nullptr, {a->pose, a->speed_bias, b->pose, b->speed_bias, g, block}, 0);
 }
 
 void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
@@ -335,6 +336,10 @@ void Estimator::Impl::marginalizeOldest() {
   const std::vector<double*> leaving_landmarks = landmarks.leaving(window.states());
   leaving.insert(leaving.end(), leaving_landmarks.begin(), leaving_landmarks.end());
   aux.leaving(oldest, &leaving);
+  inertial_fit.leaving(oldest, trusted.fromCovariance());
+  const std::string misfit =
+      inertial_fit.check(trusted.inflation(), &counters.held_intrinsics_misfits);
+  if (!misfit.empty()) calibration_note += (calibration_note.empty() ? "" : "; ") + misfit;
   // The measurements leaving add nothing along what they cannot observe; the old prior keeps
   // what earlier motion told.
   auto made = prior.marginalize(
@@ -433,6 +438,11 @@ void Estimator::Impl::trimBuffers() {
   // IMU readings are needed from the newest state on (or the first initialization frame).
   TimeNs keep_from = std::numeric_limits<TimeNs>::max();
   if (!window.empty()) keep_from = window.newestTime();
+  // A gravity-sensitive gyroscope's chain may start at any window state, and its time offset
+  // may put its readings up to a tenth of a second earlier.
+  if (!window.empty() && aux.needsBaseReadings()) {
+    keep_from = window.oldest().t - fromSeconds(0.1);
+  }
   if (!startup.empty()) keep_from = std::min(keep_from, startup.oldestTime());
   if (!initialized && !imu.empty()) {
     // Clock alignment looks up to kAlignRange around 2 * kAlignSpanNs of board poses.
@@ -512,6 +522,7 @@ void Estimator::Impl::resetAll() {
   startup.clear(trusted.fromCovariance());
   landmarks.resetPoseTags();
   aux.clear();
+  inertial_fit.clear();
   monitor.clear();  // after newProblem(): the old problem no longer uses its manifolds
   initialized = false;
   status_text = "reset: waiting for data";
@@ -571,6 +582,12 @@ Estimator::Restart Estimator::lastRestart() const {
   return {impl_->last_restart, impl_->last_restart_ns};
 }
 double Estimator::sigmaInflation() const { return std::sqrt(impl_->trusted.inflation()); }
+
+double Estimator::heldIntrinsicsStatistic(std::size_t sensor, int* dof) const {
+  *dof = 0;
+  if (sensor >= impl_->rig.inertial.size()) return 0.0;
+  return impl_->inertial_fit.statistic(sensor, dof);
+}
 void Estimator::reset() {
   impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());
   impl_->restart_note.clear();  // the caller knows

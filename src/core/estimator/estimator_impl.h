@@ -15,6 +15,7 @@
 #include "camera_frames.h"
 #include "imu_buffer.h"
 #include "imu_intrinsics.h"
+#include "inertial_fit.h"
 #include "landmarks.h"
 #include "mvis/estimator/estimator.h"
 #include "observability_monitor.h"
@@ -45,6 +46,7 @@ struct Estimator::Impl {
   estimator_internal::CameraFrames frames;
   estimator_internal::Startup startup;
   estimator_internal::TrustedCalibration trusted;
+  estimator_internal::InertialFit inertial_fit;
   // Output.
   UpdateCallback callback;
   PropagationCallback propagation_callback;

@@ -84,6 +84,7 @@ Status validate(const EstimatorOptions& o) {
                                {"aux_max_gap_s", o.aux_max_gap_s},
                                {"imu_max_gap_s", o.imu_max_gap_s},
                                {"observability_horizon_s", o.observability_horizon_s},
+                               {"held_intrinsics_horizon_s", o.held_intrinsics_horizon_s},
                                {"imu_scale_misalignment_prior", o.imu_scale_misalignment_prior},
                                {"imu_gravity_sensitivity_prior", o.imu_gravity_sensitivity_prior},
                                {"imu_acc_rotation_prior_rad", o.imu_acc_rotation_prior_rad}}) {
@@ -99,6 +100,9 @@ Status validate(const EstimatorOptions& o) {
   if (!(o.failure_step_sigma == 0.0 || o.failure_step_sigma >= 3.0)) {
     return bad("failure_step_sigma", "must be zero (off) or at least 3 (sigma)");
   }
+  if (!(o.held_intrinsics_p >= 0.0 && o.held_intrinsics_p < 0.5)) {
+    return bad("held_intrinsics_p", "must be zero (off) or a probability under 0.5");
+  }
   if (!(o.frame_gate_sigma == 0.0 || o.frame_gate_sigma >= 3.0)) {
     return bad("frame_gate_sigma", "must be zero (off) or at least 3 (sigma)");
   }
@@ -112,13 +116,6 @@ Status validate(const EstimatorOptions& options, const Rig& rig) {
   if (rig.cameras.empty()) return Status::Error("the rig has no camera");
   Status holds_valid = validateHolds(rig, options.hold);
   if (!holds_valid.ok()) return holds_valid;
-  for (const auto& sensor : rig.inertial) {
-    if (sensor.type == InertialType::kGyroscope && !sensor.intrinsics.Tg.isZero(0.0)) {
-      return Status::Error(sensor.name +
-                           ": Tg (gravity sensitivity) of a gyroscope is not supported: it has "
-                           "no accelerometer to read the specific force with; set it to zero");
-    }
-  }
   if (options.estimate_imu_intrinsics && options.aux_imu_model == AuxImuModel::kRigidVelocity) {
     return Status::Error(
         "estimator options: estimate_imu_intrinsics needs aux_imu_model velocity_state (the "

@@ -66,8 +66,11 @@ Eigen::Vector3d ImuBuffer::angularAcceleration(TimeNs t) const {
   double st = 0.0, stt = 0.0;
   Eigen::Vector3d sw = Eigen::Vector3d::Zero(), stw = Eigen::Vector3d::Zero();
   int n = 0;
-  for (const auto& m : readings_) {
-    if (m.stamp_ns < t - half) continue;
+  const auto first =
+      std::lower_bound(readings_.begin(), readings_.end(), t - half,
+                       [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
+  for (auto it = first; it != readings_.end(); ++it) {
+    const ImuMeasurement& m = *it;
     if (m.stamp_ns > t + half) break;
     const double x = toSeconds(m.stamp_ns - t);
     st += x;

@@ -64,8 +64,10 @@ ImuIntrinsicsBlocks::ImuIntrinsicsBlocks(const Rig& rig, const EstimatorOptions&
     const bool gravity = options.estimate_gravity_sensitivity &&
                          !heldByOption(options, sensor.name, "gravity_sensitivity");
     for (int k = 0; k < kImuIntrinsicsSize; ++k) {
+      // A gyroscope has Dw and Tg (against the specific force the base IMU reads, brought to
+      // it: aux_sensors.h); no Da, and its rotation is its extrinsic's.
       const bool tg = k >= L::kTg && k < L::kTg + 9;
-      if ((gyro && k >= L::kDa) || (tg && !gravity)) {
+      if ((gyro && k >= L::kDa && !tg) || (tg && !gravity)) {
         held.push_back(k);
       } else {
         b->free.push_back(k);
@@ -167,10 +169,10 @@ void ImuIntrinsicsBlocks::write(Rig* out) const {
       return out;
     };
     sd.Tw = upperStd(L::kDw, s.intrinsics.Tw);
+    for (int k = 0; k < 9; ++k)
+      sd.Tg(k / 3, k % 3) = std::sqrt(std::max(C(L::kTg + k, L::kTg + k), 0.0));
     if (!b->frame.gyro_only) {
       sd.Ta = upperStd(L::kDa, s.intrinsics.Ta);
-      for (int k = 0; k < 9; ++k)
-        sd.Tg(k / 3, k % 3) = std::sqrt(std::max(C(L::kTg + k, L::kTg + k), 0.0));
       const Eigen::Vector3d theta(b->x + L::kAccRotation);
       const Eigen::Matrix3d J = -b->frame.R0 * lie::rightJacobianSO3(-theta);
       (kalibr ? sd.R_IMUtoGYRO : sd.R_IMUtoACC) =

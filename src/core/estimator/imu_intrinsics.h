@@ -27,8 +27,8 @@ struct ImuIntrinsicsBlock {
   double initial[kImuIntrinsicsSize];  // the configured values (IntrinsicsLinearization::kFixed)
   ImuIntrinsicsFrame frame;
   Eigen::Matrix<double, kImuIntrinsicsSize, 1> prior_std;
-  // Holds the entries that are not estimated (a gyroscope's all but Dw; Tg unless gravity
-  // sensitivity is estimated); null when every entry is.
+  // Holds the entries that are not estimated (a gyroscope's all but Dw and Tg; Tg unless
+  // gravity sensitivity is estimated); null when every entry is.
   std::unique_ptr<ceres::Manifold> manifold;
   std::vector<int> free;  // the entries that are estimated: the tangent's directions, in order
   // Latest covariance of the block (ambient; zero rows for the held entries), if computed.

@@ -326,7 +326,7 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
     C << m.ww, m.wa, m.wa.transpose(), m.aa;
     C -= mean * mean.transpose() / m.T;
     C.topLeftCorner<3, 3>() -= m.n * sg * sg * Eigen::Matrix3d::Identity();
-    C.bottomRightCorner<3, 3>() -= m.n * sa * sa * Eigen::Matrix3d::Identity();
+    if (accel) C.bottomRightCorner<3, 3>() -= m.n * sa * sa * Eigen::Matrix3d::Identity();
     using L = ImuIntrinsicsLayout;
     // Tangent position of an ambient entry (-1: held by the block's own manifold).
     const auto tangentOf = [&](int ambient) {
@@ -406,8 +406,9 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
     }
     addChannel(gyro, sg, kalibr ? "gyroscope intrinsics" : "gyroscope scale and misalignment",
                "gyro");
-    if (!accel) continue;
+    // A gyroscope's Tg against the specific force it is given (aux_sensors.h), as an IMU's.
     addChannel(gravity, sg, "gravity sensitivity", "gravity");
+    if (!accel) continue;
     addChannel(acc, sa,
                kalibr ? "accelerometer scale and misalignment" : "accelerometer intrinsics",
                "accel");

@@ -21,8 +21,9 @@ void Window::push(std::unique_ptr<State> state) {
 }
 
 void Window::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
-                       std::vector<double*> blocks) {
+                       std::vector<double*> blocks, int inertial) {
   ResidualRecord r;
+  r.inertial = inertial;
   r.id = problem_->AddResidualBlock(cost, loss, blocks);
   r.cost = cost;
   r.loss = loss;

@@ -39,9 +39,10 @@ class Window {
 
   // Appends a state and adds its pose and speed-bias blocks.
   void push(std::unique_ptr<State> state);
-  // Adds a residual block, recorded with the state it is marginalized with.
+  // Adds a residual block, recorded with the state it is marginalized with (`inertial`: the
+  // inertial sensor whose readings it holds, if any).
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
-                 std::vector<double*> blocks);
+                 std::vector<double*> blocks, int inertial = -1);
   // Solves the problem: at most `iterations`, `max_time_s` seconds.
   SolveSummary solve(int iterations, double max_time_s);
   // States, frames and corners in the window.

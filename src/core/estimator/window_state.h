@@ -24,6 +24,7 @@ struct ResidualRecord {
   const ceres::CostFunction* cost = nullptr;
   const ceres::LossFunction* loss = nullptr;
   std::vector<double*> blocks;
+  int inertial = -1;  // the inertial sensor whose readings the factor holds, else -1
 };
 
 // An auxiliary sensor's state at one window time (state_blocks.h: aux_state or gyro bias).

@@ -13,24 +13,24 @@ using tangent_jet::Mat3;
 using tangent_jet::Vec3;
 
 // Jet directions: [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20,
-// speed_bias_j 21-29, bias_i 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39, and Dw 40-45
-// when the intrinsics are estimated (the rest of that block does not enter).
-constexpr int kDim = 40, kDwJet = 40;
+// speed_bias_j 21-29, bias_i 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39, and Dw 40-45,
+// Tg 46-54 when the intrinsics are estimated (the rest of that block does not enter).
+constexpr int kDim = 40, kDwJet = 40, kTgJet = 46;
 using Jet = ceres::Jet<double, kDim>;
-using IntrinsicsJet = ceres::Jet<double, kDim + 6>;
+using IntrinsicsJet = ceres::Jet<double, kDim + 15>;
 const std::vector<tangent_jet::BlockLayout> kLayout = {
     {0, 6, 7}, {6, 9, 9}, {15, 6, 7}, {21, 9, 9}, {30, 3, 3}, {33, 3, 3}, {36, 3, 4}, {39, 1, 1}};
 
-// Writes the Dw columns of the intrinsics block's Jacobian (the rest zero).
-void writeDwJacobian(const IntrinsicsJet* r, double* jacobian) {
+// Writes the Dw and Tg columns of the intrinsics block's Jacobian (the rest zero).
+void writeIntrinsicsJacobian(const IntrinsicsJet* r, double* jacobian) {
+  using L = ImuIntrinsicsLayout;
   for (int i = 0; i < 6; ++i) {
     double* row = jacobian + kImuIntrinsicsSize * i;
     std::fill(row, row + kImuIntrinsicsSize, 0.0);
-    for (int k = 0; k < 6; ++k) row[ImuIntrinsicsLayout::kDw + k] = r[i].v[kDwJet + k];
+    for (int k = 0; k < 6; ++k) row[L::kDw + k] = r[i].v[kDwJet + k];
+    for (int k = 0; k < 9; ++k) row[L::kTg + k] = r[i].v[kTgJet + k];
   }
 }
-
-const ImuIntrinsicsFrame kGyroFrame{Eigen::Matrix3d::Identity(), true};
 
 }  // namespace
 
@@ -56,15 +56,18 @@ GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time
 
 GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time_offset0_i,
                        double time_offset0_j, const BaseMotion& base_i, const BaseMotion& base_j,
-                       IntrinsicsLinearization mode, const double* intrinsics0)
+                       const ImuIntrinsicsFrame& frame, IntrinsicsLinearization mode,
+                       const double* intrinsics0)
     : GyroFactor(std::move(pre), time_offset0_i, time_offset0_j, base_i, base_j) {
   intrinsics_ = true;
+  frame_ = frame;
+  frame_.gyro_only = true;
   mode_ = mode;
   mutable_parameter_block_sizes()->push_back(kImuIntrinsicsSize);
   if (mode_ == IntrinsicsLinearization::kFixed) {
     fixed_ =
         reintegrate(pre_->samples(), deltaVariables(pre_->biasGyro().data(), nullptr, intrinsics0),
-                    kGyroFrame, true);
+                    frame_, true);
   }
 }
 
@@ -96,6 +99,10 @@ void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T
     x[6 + ImuIntrinsicsLayout::kDw + k] = tangent_jet::perturbScalarIfPresent<T>(
         parameters[8][ImuIntrinsicsLayout::kDw + k], kDwJet + k);
   }
+  for (int k = 0; intrinsics_ && k < 9; ++k) {
+    x[6 + ImuIntrinsicsLayout::kTg + k] = tangent_jet::perturbScalarIfPresent<T>(
+        parameters[8][ImuIntrinsicsLayout::kTg + k], kTgJet + k);
+  }
   const Mat3<T> dR = correctDeltas<T>(d, x).dR;
   Eigen::Matrix<T, 6, 1> r;
   r.template head<3>() = tangent_jet::logT<T>(Mat3<T>(dR.transpose() * RA_i.transpose() * RA_j));
@@ -109,7 +116,7 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
   const ImuDeltas* d =
       &factorDeltas(*pre_, intrinsics_, mode_, fixed_,
                     deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr),
-                    kGyroFrame, jacobians != nullptr, &local);
+                    frame_, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
     return true;
@@ -118,7 +125,7 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
     IntrinsicsJet r[6];
     residual<IntrinsicsJet>(parameters, *d, r);
     tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
-    if (jacobians[8] != nullptr) writeDwJacobian(r, jacobians[8]);
+    if (jacobians[8] != nullptr) writeIntrinsicsJacobian(r, jacobians[8]);
     return true;
   }
   Jet r[6];

@@ -39,14 +39,12 @@ void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T
   // w = G (w_m - b_g - Tg a), a = M (a_m - b_a)
   const Mat3<T> G = frame.kalibr ? Mat3<T>(R * tri(in + L::kDw)) : tri(in + L::kDw);
   Mat3<T> M = Mat3<T>::Zero(), Tg = Mat3<T>::Zero();
-  if (!frame.gyro_only) {
-    M = frame.kalibr ? tri(in + L::kDa) : Mat3<T>(R * tri(in + L::kDa));
-    for (int k = 0; k < 9; ++k) Tg(k / 3, k % 3) = in[L::kTg + k];
-  }
+  if (!frame.gyro_only) M = frame.kalibr ? tri(in + L::kDa) : Mat3<T>(R * tri(in + L::kDa));
+  for (int k = 0; k < 9; ++k) Tg(k / 3, k % 3) = in[L::kTg + k];
   const auto correct = [&](const ImuMeasurement& m, Vec3<T>* w, Vec3<T>* a) {
-    if (frame.gyro_only) {
+    if (frame.gyro_only) {  // m.accel: the specific force at the gyroscope, given (or zero)
       *a = Vec3<T>::Zero();
-      *w = G * (m.gyro.cast<T>() - bg);
+      *w = G * (m.gyro.cast<T>() - bg - Tg * m.accel.cast<T>());
       return;
     }
     *a = M * (m.accel.cast<T>() - ba);

@@ -150,6 +150,16 @@ Rig perturbRig(const Rig& truth, const PerturbationSizes& sizes, std::uint64_t s
                         T_b_s.p + gaussian3(translation_m));
     return perturbed.inverse();
   };
+  // A gyroscope's Tg from a stream of its own, so that adding it left the other quantities'
+  // draws (and every earlier seed's guess) as they were.
+  std::mt19937_64 rng_tg(seed ^ 0x5467ULL);
+  std::normal_distribution<double> normal_tg(0.0, 1.0);  // normal's would mix the streams
+  const auto perturbGyroscopeTg = [&](InertialSensor* s) {
+    if (!(sizes.imu_gravity_sensitivity > 0.0)) return;
+    for (int k = 0; k < 9; ++k) {
+      s->intrinsics.Tg(k / 3, k % 3) += sizes.imu_gravity_sensitivity * normal_tg(rng_tg);
+    }
+  };
   for (std::size_t i = 0; i < rig.inertial.size(); ++i) {
     InertialSensor& s = rig.inertial[i];
     if (i > 0) {
@@ -157,12 +167,13 @@ Rig perturbRig(const Rig& truth, const PerturbationSizes& sizes, std::uint64_t s
       s.time_offset += sizes.aux_time_offset_s * normal(rng);
     }
     if (s.model == ImuModel::kRpng && s.type == InertialType::kGyroscope) {
-      // A gyroscope has Tw only (no accelerometer for Ta, R_IMUtoACC and Tg).
+      // A gyroscope has Tw and Tg (no accelerometer for Ta and R_IMUtoACC).
       for (int r = 0; r < 3; ++r) {
         for (int c = r; c < 3; ++c) {
           s.intrinsics.Tw(r, c) += sizes.imu_scale_misalignment * normal(rng);
         }
       }
+      perturbGyroscopeTg(&s);
     } else if (s.model == ImuModel::kRpng) {
       for (Eigen::Matrix3d* T : {&s.intrinsics.Tw, &s.intrinsics.Ta}) {
         for (int r = 0; r < 3; ++r) {
@@ -183,6 +194,7 @@ Rig perturbRig(const Rig& truth, const PerturbationSizes& sizes, std::uint64_t s
           for (int c = 0; c <= r; ++c) (*T)(r, c) += sizes.imu_scale_misalignment * normal(rng);
         }
       }
+      if (gyro) perturbGyroscopeTg(&s);
       if (!gyro) {
         for (int k = 0; k < 9; ++k) {
           s.intrinsics.Tg(k / 3, k % 3) += sizes.imu_gravity_sensitivity * normal(rng);
