@@ -302,29 +302,37 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   // largest error/sigma measured 1.3-2.6 / 1.9-2.9 / 0.9-4.3 over one session's builds and
   // process histories (other heap addresses, so another parameter order in Ceres), 2.7 / 3.5 /
   // 5.8 with the loss per corner, and one build reached 8-18 after another test in the same
-  // process.
+  // process. Since the gyroscope's Tg is estimated too (issue 22): 0.94 / 0.93 / 0.89; before
+  // its specific force's noise was taken out of its readings' moments, its Tg's first column
+  // was not found unobservable and ended 46 sigma off.
   allErrors(run, estimate, "yaw only");
 
   // Reported, in the report's names.
-  std::vector<std::string> imu0;
+  std::vector<std::string> imu0, imu2;
   for (const auto& u : last.unobservable) {
     std::printf("  unobservable: %s\n", u.text().c_str());
     if (u.sensor == "imu0") imu0.insert(imu0.end(), u.elements.begin(), u.elements.end());
+    if (u.sensor == "imu2") imu2.insert(imu2.end(), u.elements.begin(), u.elements.end());
   }
   for (const char* element :
        {"dw12", "dw22", "dw13", "dw23", "dw33", "da11", "tg11", "tg21", "tg31"}) {
     EXPECT_NE(std::find(imu0.begin(), imu0.end(), element), imu0.end()) << element;
   }
+  // The gyroscope's Tg against the specific force along imu0's x axis (nearly its own x).
+  for (const char* element : {"tg11", "tg21", "tg31"}) {
+    EXPECT_NE(std::find(imu2.begin(), imu2.end(), element), imu2.end()) << element;
+  }
   EXPECT_EQ(std::find(imu0.begin(), imu0.end(), "dw11"), imu0.end());  // rates about x vary
 
   // They keep their prior (0.012 for Dw, 0.004 for Tg; Tw's std is Dw's to first order),
-  // while what the motion observes shrank (dw11: 0.0015).
+  // while what the motion observes shrank (dw11: 0.0038; 0.0016 with the gyroscope's Tg held,
+  // whose unobservable column's prior variance the rest is now conditioned on).
   const InertialCalibrationStd& sd = *estimate.inertial[0].std;
   for (const auto& [r, c] : {std::pair{0, 1}, {0, 2}, {1, 2}, {2, 2}}) {
     EXPECT_NEAR(sd.Tw(r, c), 0.012, 0.0012) << r << c;
   }
   for (int r = 0; r < 3; ++r) EXPECT_NEAR(sd.Tg(r, 0), 0.004, 4e-4) << r;
-  EXPECT_LT(sd.Tw(0, 0), 0.2 * 0.012);
+  EXPECT_LT(sd.Tw(0, 0), 0.4 * 0.012);
   // And they did not move from the guess (held), where the guess was off.
   const Eigen::Matrix3d moved =
       estimate.inertial[0].intrinsics.Tw - run.guess.inertial[0].intrinsics.Tw;
@@ -495,7 +503,8 @@ TEST(Estimator, AppliesAConfiguredGyroscopeGravitySensitivity) {
     const CameraErrors e =
         inertialErrors(run.truth.inertial[2], estimator->calibration().inertial[2]);
     worst[k] = std::max(e.rotation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio);
-    std::printf("imu2 with %s Tg: rotation %.4f deg, time offset %.4f ms, largest error/sigma %.2f\n",
+    std::printf("imu2 with %s Tg: rotation %.4f deg, time offset %.4f ms, largest error/sigma "
+                "%.2f\n",
                 k == 0 ? "its configured" : "zero", e.rotation_deg, e.time_offset_ms, worst[k]);
   }
   EXPECT_LT(worst[0], 3.0);

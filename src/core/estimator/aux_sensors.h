@@ -86,7 +86,8 @@ class AuxSensors {
   // through the current extrinsic rotation and the lever arm (report Eq. 40's rigid body):
   //   a_A = R_AI (a_I + alpha x p_IA + w x (w x p_IA)),  a_I = a'_m - b'_a,  w = w'_m - b'_g
   // with the newest window state's base biases, alpha the base rate's slope over 20 ms and p_IA
-  // the gyroscope's position in {I}. Configured (held) Tg is subtracted here too (imu_correction.h).
+  // the gyroscope's position in {I}. A configured Tg (not estimated) is subtracted here too
+  // (imu_correction.h).
   // The specific force is data to the factors: its error (a base accelerometer bias of 0.1
   // m/s^2, an extrinsic 1 deg off) moves Tg a by 3e-5 rad/s at Tg = 3e-4, under the gyroscope's
   // white noise over any interval.

@@ -277,12 +277,14 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   const State& last = window.newest();
   const Eigen::Vector3d bg = last.biasGyro(), ba = last.biasAccel();
   const TimeNs last_t = last.t;
-  auto pre = imu.preintegrate(last_t, t, bg, ba);
+  auto pre = imu.preintegrate(last_t, t, bg, ba);  // raw with intrinsics: the factor corrects
   auto s = makeState(t);
   Eigen::Quaterniond q;
   Eigen::Vector3d p, v;
-  pre->predict(poseRotation(last.pose), posePosition(last.pose), Eigen::Vector3d(last.speed_bias),
-               Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
+  // The state as it stays until the next solve (solve_every): from corrected readings.
+  corrected(last, t)->predict(poseRotation(last.pose), posePosition(last.pose),
+                              Eigen::Vector3d(last.speed_bias),
+                              Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
   se3ToPose(SE3(q, p), s->pose);
   Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
   std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
@@ -298,11 +300,7 @@ void Estimator::Impl::propagate(const ImuMeasurement& m) {
   if (m.stamp_ns <= newest.t) return;
   const Eigen::Vector3d bg = newest.biasGyro(), ba = newest.biasAccel();
   if (!propagation.pre || propagation.from != newest.t) {
-    // With estimated intrinsics the readings are raw: corrected here by the current estimate.
-    Eigen::Vector3d bg_c, ba_c;
-    intrinsics.baseBiases(bg, ba, &bg_c, &ba_c);
-    propagation.pre =
-        imu.preintegrate(newest.t, m.stamp_ns, bg_c, ba_c, &intrinsics.baseCorrection());
+    propagation.pre = corrected(newest, m.stamp_ns);
     propagation.from = newest.t;
   } else {
     propagation.pre->add(intrinsics.baseCorrection().apply(m, false));
@@ -319,6 +317,12 @@ void Estimator::Impl::propagate(const ImuMeasurement& m) {
   out.bias_gyro = bg;
   out.bias_accel = ba;
   propagation_callback(out);
+}
+
+std::shared_ptr<ImuPreintegration> Estimator::Impl::corrected(const State& from, TimeNs to) const {
+  Eigen::Vector3d bg_c, ba_c;
+  intrinsics.baseBiases(from.biasGyro(), from.biasAccel(), &bg_c, &ba_c);
+  return imu.preintegrate(from.t, to, bg_c, ba_c, &intrinsics.baseCorrection());
 }
 
 SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
@@ -585,8 +589,7 @@ double Estimator::sigmaInflation() const { return std::sqrt(impl_->trusted.infla
 
 double Estimator::heldIntrinsicsStatistic(std::size_t sensor, int* dof) const {
   *dof = 0;
-  if (sensor >= impl_->rig.inertial.size()) return 0.0;
-  return impl_->inertial_fit.statistic(sensor, dof);
+  return sensor < impl_->rig.inertial.size() ? impl_->inertial_fit.statistic(sensor, dof) : 0.0;
 }
 void Estimator::reset() {
   impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());

@@ -89,6 +89,9 @@ struct Estimator::Impl {
   void marginalizeOldest();
   // IMU-rate state: the newest window state carried forward with the readings since.
   void propagate(const ImuMeasurement& m);
+  // The base readings from state `from` to `to` preintegrated at its biases, corrected by the
+  // current intrinsics estimate (as they are when the intrinsics are not estimated).
+  std::shared_ptr<ImuPreintegration> corrected(const State& from, TimeNs to) const;
   void publish(const SolveSummary& summary, Clock::time_point start);
   // Calibration standard deviations, and the newest pose's covariance.
   Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov);

@@ -326,7 +326,15 @@ void ObservabilityMonitor::intrinsicsQuantities(const ceres::Problem& problem,
     C << m.ww, m.wa, m.wa.transpose(), m.aa;
     C -= mean * mean.transpose() / m.T;
     C.topLeftCorner<3, 3>() -= m.n * sg * sg * Eigen::Matrix3d::Identity();
-    if (accel) C.bottomRightCorner<3, 3>() -= m.n * sa * sa * Eigen::Matrix3d::Identity();
+    // A gyroscope's specific force is the base IMU's (aux_sensors.h), with its white noise.
+    double force_noise = accel ? sa * sa : 0.0;
+    if (b->frame.gyro_only) {
+      const InertialSensor& base = rig_.inertial[0];
+      const double sb = base.noise.accelerometer_noise_density;
+      const double rate = rig_.inertial[i].update_rate;
+      force_noise = sb * sb * (rate > 0.0 && base.update_rate > 0.0 ? base.update_rate / rate : 1);
+    }
+    C.bottomRightCorner<3, 3>() -= m.n * force_noise * Eigen::Matrix3d::Identity();
     using L = ImuIntrinsicsLayout;
     // Tangent position of an ambient entry (-1: held by the block's own manifold).
     const auto tangentOf = [&](int ambient) {
