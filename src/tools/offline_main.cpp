@@ -4,6 +4,7 @@
 //              [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
+//              [--imu-observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
@@ -37,7 +38,8 @@ int usage(const char* message) {
                "                    [--window N]\n"
                "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
-               "                    [--observability-ratio R] [--estimate-intrinsics]\n"
+               "                    [--observability-ratio R] [--imu-observability-ratio R]\n"
+               "                    [--estimate-intrinsics]\n"
                "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
                "                    [--fixed-imu-linearization] [--propagation-noise]\n"
                "                    [--imu-step S]\n"
@@ -66,11 +68,12 @@ int usage(const char* message) {
                "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
                "                   0: off; see config/mvis.yaml)\n"
+               "  --imu-observability-ratio R  the same for the IMU intrinsics (default 1)\n"
                "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n"
                "  --estimate-imu-intrinsics  calibrate Dw, Da, R_IMUtoACC (kalibr: R_IMUtoGYRO)\n"
                "                   of every rpng or kalibr\n"
                "                   inertial sensor (a gyroscope's Dw), re-integrating\n"
-               "  --estimate-gravity-sensitivity  and their Tg\n"
+               "  --estimate-gravity-sensitivity  and their Tg (a gyroscope's too)\n"
                "  --fixed-imu-linearization  first order about the configured IMU intrinsics\n"
                "                   instead of re-integrating (for comparison)\n"
                "  --propagation-noise  a frame's IMU-propagated pose carries the readings'\n"
@@ -105,6 +108,7 @@ int main(int argc, char** argv) {
   std::string imu_chain, cam_chain, target;
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
+  double imu_observability_ratio = mvis::EstimatorOptions{}.imu_intrinsics_observability_ratio;
   double failure_step_sigma = mvis::EstimatorOptions{}.failure_step_sigma;
   double frame_gate_sigma = mvis::EstimatorOptions{}.frame_gate_sigma;
   bool estimate_intrinsics = false;
@@ -179,12 +183,13 @@ int main(int argc, char** argv) {
       if (!value(&aux_model) || (aux_model != "velocity_state" && aux_model != "rigid_velocity")) {
         return usage("--aux-model takes velocity_state or rigid_velocity");
       }
-    } else if (arg == "--observability-ratio") {
+    } else if (arg == "--observability-ratio" || arg == "--imu-observability-ratio") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) {
-        return usage("--observability-ratio takes a number >= 0");
+        return usage((arg + " takes a number >= 0").c_str());
       }
-      observability_ratio = std::atof(v.c_str());
+      (arg == "--observability-ratio" ? observability_ratio : imu_observability_ratio) =
+          std::atof(v.c_str());
     } else if (arg == "--estimate-intrinsics") {
       estimate_intrinsics = true;
     } else if (arg == "--estimate-imu-intrinsics") {
@@ -257,6 +262,7 @@ int main(int argc, char** argv) {
                                         ? mvis::AuxImuModel::kRigidVelocity
                                         : mvis::AuxImuModel::kVelocityState;
   options.estimator.observability_ratio = observability_ratio;
+  options.estimator.imu_intrinsics_observability_ratio = imu_observability_ratio;
   options.estimator.estimate_intrinsics = estimate_intrinsics;
   options.estimator.estimate_imu_intrinsics = estimate_imu_intrinsics;
   options.estimator.estimate_gravity_sensitivity = estimate_gravity_sensitivity;
