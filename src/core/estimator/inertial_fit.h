@@ -18,8 +18,8 @@
 // simulator), which the nominal information does not know (with it, the null ended at 3.1-4.6
 // for 9 degrees of freedom; with the spread at 7.3-8.9). Directions the motion did not excite
 // (eigenvalues under 1e-6 of the largest: yaw only, Tg's column along the vertical) carry no
-// degree of freedom. Above the chi-square's 1 - held_intrinsics_p
-// quantile the sensor is said to misfit, once until its statistic falls back under.
+// degree of freedom. Above the chi-square's 1 - held_intrinsics_p quantile the sensor is said
+// to misfit, once until its statistic falls back under.
 //
 // On real data the residuals are not white, and every statistic of them comes out larger than
 // its distribution says; the test divides by the inflation the trusted calibration measures for
@@ -27,9 +27,9 @@
 // estimated and its Tg held, the raw statistic reached 96 against a bound of 34 (with the rough
 // configuration, and with the camera intrinsics estimated too); divided, it stays at or under 8
 // with the rough configuration and passes once, at 23.6 s (37, inflation 1.5 then; at most 40),
-// with the camera intrinsics estimated. Whether Tg is the cause there is open: estimating it gives up to 5.1e-4
-// rad/s per m/s^2 (4.2 inflated sigma), 30 times the ADIS16448's data sheet value; hence the
-// warning's words. On mvis's simulator the inflation is 1 and nothing changes.
+// with the camera intrinsics estimated. Whether Tg is the cause there is open: estimating it
+// gives up to 5.1e-4 rad/s per m/s^2 (4.2 inflated sigma), 30 times the ADIS16448's data sheet
+// value; hence the warning's words. On mvis's simulator the inflation is 1 and nothing changes.
 //
 // Owns: per sensor the recent factors' gradients. Asks of the others: the intrinsics blocks (which
 // entries are held).
