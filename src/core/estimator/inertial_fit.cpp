@@ -127,7 +127,8 @@ std::string InertialFit::check(double inflation, long* misfits) {
       << "its configured value, more than their noise can (score test " << std::fixed
       << std::setprecision(0) << stat;
     if (inflation > 1.0) {
-      m << " after dividing by the calibration's measured inflation " << std::setprecision(1)
+      // The variance ratio: sigma_inflation squared.
+      m << " after dividing by the calibration's variance inflation " << std::setprecision(1)
         << inflation << std::setprecision(0);
     }
     m << " over the last " << options_.held_intrinsics_horizon_s << " s against a bound of "

@@ -26,7 +26,7 @@
 // the same reason (trusted_calibration.h). On the real EuRoC bag with the base IMU's intrinsics
 // estimated and its Tg held, the raw statistic reached 96 against a bound of 34 (with the rough
 // configuration, and with the camera intrinsics estimated too); divided, it stays at or under 8
-// with the rough configuration and passes once, at 23.6 s (37, inflation 1.5 then; at most 40),
+// with the rough configuration and passes once, at 23.6 s (37, variance inflation 1.5; at most 40),
 // with the camera intrinsics estimated. Whether Tg is the cause there is open: estimating it
 // gives up to 5.1e-4 rad/s per m/s^2 (4.2 inflated sigma), 30 times the ADIS16448's data sheet
 // value; hence the warning's words. On mvis's simulator the inflation is 1 and nothing changes.
