@@ -282,9 +282,9 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   Eigen::Quaterniond q;
   Eigen::Vector3d p, v;
   // The state as it stays until the next solve (solve_every): from corrected readings.
-  corrected(last, t)->predict(poseRotation(last.pose), posePosition(last.pose),
-                              Eigen::Vector3d(last.speed_bias),
-                              Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
+  (intrinsics.block(0) != nullptr ? corrected(last, t) : pre)
+      ->predict(poseRotation(last.pose), posePosition(last.pose), Eigen::Vector3d(last.speed_bias),
+                Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
   se3ToPose(SE3(q, p), s->pose);
   Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
   std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);

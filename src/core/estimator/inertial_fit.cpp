@@ -55,8 +55,7 @@ void InertialFit::leaving(const State& oldest, bool settled) {
     const int n = static_cast<int>(s.held.size());
     Eigen::MatrixXd Jh(m, n);
     for (int k = 0; k < n; ++k) Jh.col(k) = J.col(s.held[static_cast<std::size_t>(k)]);
-    const Eigen::VectorXd g = Jh.transpose() * r;
-    s.pieces.push_back({oldest.t, g, g * g.transpose()});
+    s.pieces.push_back({oldest.t, Jh.transpose() * r});
   }
   for (Sensor& s : sensors_) {
     while (!s.pieces.empty() && s.pieces.front().t < oldest.t - horizon) s.pieces.pop_front();
@@ -76,7 +75,7 @@ double InertialFit::statistic(std::size_t sensor, int* dof) const {
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, n);
   for (const auto& p : s.pieces) {
     g += p.g;
-    S += p.gg;
+    S += p.g * p.g.transpose();
   }
   // Directions the motion did not excite (yaw only: Tg's column along the vertical) carry no
   // information and no degree of freedom.

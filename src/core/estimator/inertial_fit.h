@@ -73,8 +73,7 @@ class InertialFit {
  private:
   struct Piece {
     TimeNs t;
-    Eigen::VectorXd g;   // J^T r
-    Eigen::MatrixXd gg;  // g g^T
+    Eigen::VectorXd g;  // J^T r
   };
   struct Sensor {
     std::vector<int> held;  // ambient entries of the block that are held
