@@ -50,6 +50,7 @@
 #include "mvis/common/status.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/frontend/tag_observation.h"
+#include "mvis/inertial/imu_correction.h"
 #include "mvis/inertial/imu_readings.h"
 #include "mvis/inertial/imu_reintegration.h"
 #include "mvis/rig/rig.h"
@@ -231,6 +232,19 @@ struct EstimatorState {
   Eigen::Vector3d bias_accel = Eigen::Vector3d::Zero();
 };
 
+// What IMU-rate odometry starts from after an update (odometry_propagator.h).
+struct PropagationAnchor {
+  bool valid = false;  // false: no state to propagate (before the first, after a restart)
+  EstimatorState state;  // the newest window state (base clock); its biases as reported
+  Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // [m/s^2], world (board) frame
+  // Raw base reading -> calibrated reading: the configured intrinsics, or the current estimate
+  // while they are estimated.
+  ImuCorrection correction;
+  // The biases of the corrected readings that the integration subtracts.
+  Eigen::Vector3d corrected_bias_gyro = Eigen::Vector3d::Zero();
+  Eigen::Vector3d corrected_bias_accel = Eigen::Vector3d::Zero();
+};
+
 struct SolveSummary {
   int iterations = 0;
   double solve_s = 0.0;  // Ceres time
@@ -271,6 +285,8 @@ struct EstimatorUpdate {
   bool calibration_covariance_updated = false;          // calibration() has new standard deviations
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // in the world (board) frame [m/s^2]
   SolveSummary solve;
+  // The newest state with what propagating it takes (odometry_propagator.h).
+  PropagationAnchor anchor;
   // What the latest observability check found (observability_ratio); empty when all is.
   std::vector<UnobservableCalibration> unobservable;
 };

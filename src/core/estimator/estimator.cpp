@@ -59,7 +59,8 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       aux(rig, options, imu, window, calibration, intrinsics, monitor, counters),
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
       startup(rig, options, calibration, imu, counters),
-      inertial_fit(rig, options, intrinsics) {
+      inertial_fit(rig, options, intrinsics),
+      odometry(rig.inertial[0], options.imu_integration_step_s) {
   trusted.setConfigured(trustedBlocks(true));
 }
 
@@ -145,7 +146,7 @@ Status Estimator::Impl::addImu(std::size_t sensor, const ImuMeasurement& raw) {
   }
   imu.push(m);
   process();
-  propagate(m);
+  propagate(raw);
   if (gap) {
     ++counters.imu_gaps;
     std::ostringstream s;
@@ -294,29 +295,23 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   monitor.addMotion(last_t, t, imu.between(last_t, t), bg);
 }
 
-void Estimator::Impl::propagate(const ImuMeasurement& m) {
-  if (!propagation_callback || !initialized || window.empty()) return;
+void Estimator::Impl::propagate(const ImuMeasurement& raw) {
+  if (!propagation_callback) return;
+  if (const auto state = odometry.add(raw)) propagation_callback(*state);
+}
+
+PropagationAnchor Estimator::Impl::anchor() {
+  PropagationAnchor out;
+  if (!initialized || window.empty()) return out;
   const State& newest = window.newest();
-  if (m.stamp_ns <= newest.t) return;
-  const Eigen::Vector3d bg = newest.biasGyro(), ba = newest.biasAccel();
-  if (!propagation.pre || propagation.from != newest.t) {
-    propagation.pre = corrected(newest, m.stamp_ns);
-    propagation.from = newest.t;
-  } else {
-    propagation.pre->add(intrinsics.baseCorrection().apply(m, false));
-  }
-  EstimatorState out;
-  out.stamp_ns = m.stamp_ns;
-  Eigen::Quaterniond q;
-  Eigen::Vector3d p, v;
-  propagation.pre->predict(poseRotation(newest.pose), posePosition(newest.pose),
-                           Eigen::Vector3d(newest.speed_bias),
-                           Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
-  out.T_G_I = SE3(q, p);
-  out.v_G = v;
-  out.bias_gyro = bg;
-  out.bias_accel = ba;
-  propagation_callback(out);
+  out.valid = true;
+  out.state = newest.toEstimate();
+  out.gravity_G = Eigen::Vector3d(calibration.gravity());
+  out.correction =
+      intrinsics.block(0) != nullptr ? intrinsics.baseCorrection() : intrinsics.arrivalCorrection(0);
+  intrinsics.baseBiases(newest.biasGyro(), newest.biasAccel(), &out.corrected_bias_gyro,
+                        &out.corrected_bias_accel);
+  return out;
 }
 
 std::shared_ptr<ImuPreintegration> Estimator::Impl::corrected(const State& from, TimeNs to) const {
@@ -366,6 +361,8 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   EstimatorUpdate u;
   u.solve = summary;
   u.state = window.newest().toEstimate();
+  u.anchor = anchor();
+  if (propagation_callback) odometry.setAnchor(u.anchor);
   u.gravity_G = Eigen::Vector3d(calibration.gravity());
   u.unobservable = monitor.unobservable();
   u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -528,6 +525,7 @@ void Estimator::Impl::resetAll() {
   aux.clear();
   inertial_fit.clear();
   monitor.clear();  // after newProblem(): the old problem no longer uses its manifolds
+  odometry.reset();
   initialized = false;
   status_text = "reset: waiting for data";
 }

@@ -18,6 +18,7 @@
 #include "inertial_fit.h"
 #include "landmarks.h"
 #include "mvis/estimator/estimator.h"
+#include "mvis/estimator/odometry_propagator.h"
 #include "observability_monitor.h"
 #include "startup.h"
 #include "trusted_calibration.h"
@@ -50,11 +51,8 @@ struct Estimator::Impl {
   // Output.
   UpdateCallback callback;
   PropagationCallback propagation_callback;
-  // IMU-rate propagation from the newest state: its readings since, and that state's time.
-  struct Propagation {
-    std::shared_ptr<ImuPreintegration> pre;
-    TimeNs from = std::numeric_limits<TimeNs>::min();
-  } propagation;
+  // IMU-rate propagation from the newest state (fed only while a propagation callback is set).
+  OdometryPropagator odometry;
   bool initialized = false;
   std::string status_text = "waiting for data";
   std::string last_restart;        // why the window last started over ("" if it never did)
@@ -87,8 +85,11 @@ struct Estimator::Impl {
   // solution.
   SolveSummary solve(int iterations, double max_time_s = -1.0);
   void marginalizeOldest();
-  // IMU-rate state: the newest window state carried forward with the readings since.
-  void propagate(const ImuMeasurement& m);
+  // IMU-rate state: the newest window state carried forward with the readings since (a raw
+  // base reading, fed to `odometry`), to the propagation callback.
+  void propagate(const ImuMeasurement& raw);
+  // The newest window state and what propagating it takes; invalid before the first.
+  PropagationAnchor anchor();
   // The base readings from state `from` to `to` preintegrated at its biases, corrected by the
   // current intrinsics estimate (as they are when the intrinsics are not estimated).
   std::shared_ptr<ImuPreintegration> corrected(const State& from, TimeNs to) const;

@@ -35,6 +35,7 @@ class ImuBuffer {
   bool empty() const { return readings_.empty(); }
   TimeNs firstStamp() const { return readings_.front().stamp_ns; }
   std::size_t size() const { return readings_.size(); }
+  const std::deque<ImuMeasurement>& readings() const { return readings_; }
   // Appends a reading with a later stamp than lastStamp() (its span set to the interval since).
   void push(ImuMeasurement m);
   void clear() { readings_.clear(); }
