@@ -68,6 +68,8 @@ mvis_core_test(test_tag_reprojection_factor test/unit/test_tag_reprojection_fact
 mvis_core_test(test_marginalization test/unit/test_marginalization.cpp)
 mvis_core_test(test_observability test/unit/test_observability.cpp)
 mvis_core_test(test_estimator test/unit/test_estimator.cpp)
+mvis_core_test(test_odometry_propagator test/unit/test_odometry_propagator.cpp)
+mvis_core_test(test_serial_worker test/unit/test_serial_worker.cpp)
 mvis_core_test(test_estimator_sensors test/unit/test_estimator_sensors.cpp)
 mvis_core_test(test_estimator_imu_intrinsics test/unit/test_estimator_imu_intrinsics.cpp)
 

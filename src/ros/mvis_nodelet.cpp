@@ -8,12 +8,11 @@
 #include <sensor_msgs/image_encodings.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "mvis/estimator/result_directory.h"
 #include "mvis/frontend/debug_image.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/ros/conversions.h"
@@ -31,6 +30,10 @@ geometry_msgs::TransformStamped stampedTransform(const SE3& T, const ros::Time& 
   out.transform = ros_conversions::toTransformMsg(T);
   return out;
 }
+
+// Messages waiting for the estimator's thread at most: ~25 s of the VI-Rig's (500 + 100 + 200 Hz
+// readings, three cameras at 20 Hz). Beyond it a message is dropped and said.
+constexpr std::size_t kMaxBacklog = 20000;
 
 // The gravity-aligned world frame {W} (z up) over the board frame {G} the estimator works in:
 // the smallest rotation taking gravity in {G} to -z, origin at the board's.
@@ -122,7 +125,8 @@ void MvisNodelet::onInit() {
     }
     estimator_ = std::move(estimator).value();
     estimator_->setUpdateCallback([this](const EstimatorUpdate& u) { onUpdate(u); });
-    estimator_->setPropagationCallback([this](const EstimatorState& s) { onPropagated(s); });
+    odometry_ = std::make_unique<OdometryPropagator>(rig_.inertial[0], eo.imu_integration_step_s);
+    worker_ = std::make_unique<SerialWorker>(kMaxBacklog);
   }
   if (!rig_.target) {
     NODELET_INFO_STREAM("mvis: " << options_.config_dir
@@ -160,13 +164,22 @@ void MvisNodelet::stayDown(const std::string& reason) {
 void MvisNodelet::subscribeSensors() {
   ros::NodeHandle& nh = getNodeHandle();
   const ros::WallTime now = ros::WallTime::now();
+  // The IMUs have a queue and a thread of their own: odometry waits for no image and no solve.
+  ros::NodeHandle imu_nh(nh);
+  imu_nh.setCallbackQueue(&imu_queue_);
   for (std::size_t i = 0; i < rig_.inertial.size(); ++i) {
     const auto& s = rig_.inertial[i];
     traffic_.push_back({s.name, s.rostopic, s.update_rate, 0, 0, {}, 0, now});
-    in_.subscribers.push_back(nh.subscribe<sensor_msgs::Imu>(
-        s.rostopic, 2000, [this, i](const sensor_msgs::ImuConstPtr& msg) { onImu(i, msg); },
+    in_.subscribers.push_back(imu_nh.subscribe<sensor_msgs::Imu>(
+        s.rostopic, 2000,
+        boost::function<void(const ros::MessageEvent<sensor_msgs::Imu const>&)>(
+            [this, i](const ros::MessageEvent<sensor_msgs::Imu const>& event) {
+              onImu(i, event);
+            }),
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
+  imu_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &imu_queue_);
+  imu_spinner_->start();
   // With tag_threads > 1 the cameras' images are detected on the nodelet manager's
   // multi-threaded queue, in parallel (one camera's frames still one at a time).
   ros::NodeHandle& image_nh = options_.tag_threads > 1 ? getMTNodeHandle() : nh;
@@ -198,12 +211,19 @@ void MvisNodelet::subscribeSensors() {
   }
 }
 
-void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg) {
+void MvisNodelet::onImu(std::size_t sensor,
+                        const ros::MessageEvent<sensor_msgs::Imu const>& event) {
+  // Under simulated time the receipt stamp is the bag's clock: the callback's start then.
+  ros::WallTime arrival = ros::WallTime::now();
+  const ros::Time receipt = event.getReceiptTime();
+  if (!ros::Time::isSimTime() && !receipt.isZero()) {
+    arrival = std::min(arrival, ros::WallTime(receipt.sec, receipt.nsec));
+  }
   const auto& s = rig_.inertial[sensor];
   ImuMeasurement reading;
   std::string why;
-  const bool usable =
-      ros_conversions::toImuMeasurement(*msg, s.type == InertialType::kGyroscope, &reading, &why);
+  const bool usable = ros_conversions::toImuMeasurement(
+      *event.getConstMessage(), s.type == InertialType::kGyroscope, &reading, &why);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     SensorTraffic& t = traffic_[sensor];
@@ -217,10 +237,30 @@ void MvisNodelet::onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg)
     ++t.received;
   }
   if (!estimator_) return;
-  std::lock_guard<std::mutex> lock(estimator_mutex_);
-  if (sensor == 0) last_gyro_ = reading.gyro;
-  const long restarts = estimator_->counters().restarts;
-  noteEstimatorStatus(restarts, estimator_->addImu(sensor, reading));
+  if (sensor == 0) {
+    std::lock_guard<std::mutex> lock(odometry_mutex_);
+    if (const auto state = odometry_->add(reading)) {
+      publishOdometry(*state, arrival);
+      odometry_timing_.paused.clear();
+    } else {
+      odometry_timing_.paused = odometry_->why();
+    }
+  }
+  toEstimator(s.name, [this, sensor, reading] {
+    std::lock_guard<std::mutex> lock(estimator_mutex_);
+    const long restarts = estimator_->counters().restarts;
+    noteEstimatorStatus(restarts, estimator_->addImu(sensor, reading));
+  });
+}
+
+void MvisNodelet::toEstimator(const std::string& sensor, std::function<void()> call) {
+  if (worker_->push(std::move(call))) return;
+  const SerialWorker::Backlog backlog = worker_->backlog();
+  if (backlog.tasks < kMaxBacklog) return;  // refused because it stopped: shutting down
+  NODELET_WARN_STREAM_THROTTLE(
+      5.0, "mvis: the estimator is " << backlog.oldest_s << " s behind the sensors ("
+                                     << backlog.tasks << " messages waiting): dropped a message of "
+                                     << sensor << " (solves slower than the data come)");
 }
 
 void MvisNodelet::noteEstimatorStatus(long restarts, const Status& status) {
@@ -230,6 +270,10 @@ void MvisNodelet::noteEstimatorStatus(long restarts, const Status& status) {
     // most once a second: it is rare and important.
     path_.poses.clear();
     have_update_ = false;
+    {
+      std::lock_guard<std::mutex> lock(odometry_mutex_);
+      odometry_->setAnchor(PropagationAnchor());
+    }
     estimator_error_ = estimator_->lastRestart().reason;
     NODELET_WARN_STREAM_THROTTLE(1.0, "mvis: " << estimator_error_);
   } else if (!status.ok()) {
@@ -309,9 +353,11 @@ void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result
   // live node grew by ~0.25 MB/s with three cameras (scripts/soak's nodelet run).
   frontend_->dropBefore(camera, result.frame.stamp_ns - kNsPerSecond);
   if (estimator_) {
-    std::lock_guard<std::mutex> lock(estimator_mutex_);
-    const long restarts = estimator_->counters().restarts;
-    noteEstimatorStatus(restarts, estimator_->addTagFrame(result.frame));
+    toEstimator(rig_.cameras[camera].name, [this, frame = result.frame] {
+      std::lock_guard<std::mutex> lock(estimator_mutex_);
+      const long restarts = estimator_->counters().restarts;
+      noteEstimatorStatus(restarts, estimator_->addTagFrame(frame));
+    });
   }
   std::lock_guard<std::mutex> lock(mutex_);
   SensorTraffic& t = traffic_[rig_.inertial.size() + camera];
@@ -327,6 +373,14 @@ void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result
 }
 
 MvisNodelet::~MvisNodelet() {
+  if (imu_spinner_) imu_spinner_->stop();
+  if (worker_) {
+    const std::size_t dropped = worker_->stop();
+    if (dropped > 0) {
+      std::fprintf(stderr, "mvis: shutting down: %zu messages the estimator had not taken yet\n",
+                   dropped);
+    }
+  }
   if (!estimator_) return;
   std::lock_guard<std::mutex> lock(estimator_mutex_);
   if (!estimator_->initialized() && estimator_->trajectory().empty()) return;
@@ -349,8 +403,19 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   }
   last_update_ = u;
   have_update_ = true;
-  gravity_G_ = u.gravity_G;
-  if (u.pose_covariance.allFinite()) last_pose_covariance_ = u.pose_covariance;
+  {
+    // The new anchor's readings integrated here, on the estimator's thread, not the IMU's.
+    PreparedAnchor anchor;
+    {
+      std::lock_guard<std::mutex> lock(odometry_mutex_);
+      anchor = odometry_->prepare(u.anchor);
+    }
+    anchor.integrate();
+    std::lock_guard<std::mutex> lock(odometry_mutex_);
+    odometry_->install(std::move(anchor));
+    gravity_G_ = u.gravity_G;
+    if (u.pose_covariance.allFinite()) last_pose_covariance_ = u.pose_covariance;
+  }
   const ros::Time stamp = ros_conversions::toRosTime(u.state.stamp_ns);
   const std::string base = options_.frame_prefix + rig_.inertial[0].name;
   std::vector<geometry_msgs::TransformStamped> transforms;
@@ -390,7 +455,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   if (u.calibration_covariance_updated) publishCalibration();
 }
 
-void MvisNodelet::onPropagated(const EstimatorState& state) {
+void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arrival) {
   const ros::Time stamp = ros_conversions::toRosTime(state.stamp_ns);
   const std::string board = options_.frame_prefix + "board";
   const std::string base = options_.frame_prefix + rig_.inertial[0].name;
@@ -418,7 +483,7 @@ void MvisNodelet::onPropagated(const EstimatorState& state) {
     for (int c = 0; c < 6; ++c) odom.pose.covariance[6 * r + c] = C(r, c);
   }
   const Eigen::Vector3d v_I = T_W_I.q.conjugate() * (T_W_G.q * state.v_G);
-  const Eigen::Vector3d w_I = last_gyro_ - state.bias_gyro;
+  const Eigen::Vector3d w_I = odometry_->angularVelocity();
   odom.twist.twist.linear.x = v_I.x();
   odom.twist.twist.linear.y = v_I.y();
   odom.twist.twist.linear.z = v_I.z();
@@ -428,6 +493,22 @@ void MvisNodelet::onPropagated(const EstimatorState& state) {
   out_.odometry.publish(odom);
   out_.tf->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
                           stampedTransform(state.T_G_I, stamp, board, base)});
+  const ros::WallTime now = ros::WallTime::now();
+  OdometryTiming& timing = odometry_timing_;
+  const double latency_ms = (now - arrival).toSec() * 1e3;
+  timing.latency_ms.push_back(latency_ms);
+  const auto bin = static_cast<std::size_t>(std::max(0.0, latency_ms) / OdometryTiming::kBinMs);
+  ++timing.histogram[std::min(bin, timing.histogram.size() - 1)];
+  timing.worst_latency_ms = std::max(timing.worst_latency_ms, latency_ms);
+  if (timing.published++ > 0) {
+    const double interval_ms = (now - timing.last_published).toSec() * 1e3;
+    timing.max_interval_ms = std::max(timing.max_interval_ms, interval_ms);
+    timing.worst_interval_ms = std::max(timing.worst_interval_ms, interval_ms);
+    timing.worst_input_interval_ms =
+        std::max(timing.worst_input_interval_ms, (arrival - timing.last_arrival).toSec() * 1e3);
+  }
+  timing.last_published = now;
+  timing.last_arrival = arrival;
 }
 
 void MvisNodelet::publishCalibration() {
@@ -442,57 +523,6 @@ void MvisNodelet::publishCalibration() {
   msg.last_restart_reason = restart.reason;
   if (!restart.reason.empty()) msg.last_restart = ros_conversions::toRosTime(restart.stamp_ns);
   out_.calibration.publish(msg);
-}
-
-std::string MvisNodelet::saveResult() {
-  std::string dir = options_.result_dir;
-  if (dir.empty()) {
-    const char* ros_home = std::getenv("ROS_HOME");
-    const char* home = std::getenv("HOME");
-    dir = ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros";
-    dir += "/mvis_result";
-  }
-  const Status covariance = estimator_->computeCovariance();
-  if (!covariance.ok()) NODELET_WARN_STREAM("mvis: " << covariance.message());
-  const Status status =
-      writeResultDirectory(dir, estimator_->calibration(), estimator_->trajectory(), estimate_log_);
-  if (!status.ok()) return status.message();
-  NODELET_INFO_STREAM(
-      "mvis: wrote the calibration, trajectory.tum and the estimate log (calibration.csv, "
-      "pose_covariance.csv) to "
-      << dir);
-  return "";
-}
-
-bool MvisNodelet::onSaveCalibration(std_srvs::Trigger::Request&,
-                                    std_srvs::Trigger::Response& response) {
-  if (!estimator_) {
-    response.success = false;
-    response.message = "no estimator is running (see the log)";
-    return true;
-  }
-  std::lock_guard<std::mutex> lock(estimator_mutex_);
-  const std::string problem = saveResult();
-  response.success = problem.empty();
-  response.message = problem.empty() ? "saved" : problem;
-  if (response.success) publishCalibration();
-  return true;
-}
-
-bool MvisNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-  if (!estimator_) {
-    response.success = false;
-    response.message = "no estimator is running (see the log)";
-    return true;
-  }
-  std::lock_guard<std::mutex> lock(estimator_mutex_);
-  estimator_->reset();
-  path_.poses.clear();
-  have_update_ = false;
-  NODELET_INFO("mvis: reset on request; the window starts over from the trusted calibration");
-  response.success = true;
-  response.message = "reset; the window starts over from the trusted calibration";
-  return true;
 }
 
 }  // namespace mvis

@@ -2,6 +2,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <algorithm>
 #include <cstdio>
 
 #include "mvis/ros/mvis_nodelet.h"
@@ -89,6 +90,7 @@ void MvisNodelet::publishDiagnostics() {
     }
     if (!estimator_error_.empty()) add("last_problem", estimator_error_);
     array.status.push_back(status);
+    array.status.push_back(odometryStatus());
   }
   const ros::WallTime now = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
@@ -125,6 +127,67 @@ void MvisNodelet::publishDiagnostics() {
     array.status.push_back(status);
   }
   out_.diagnostics.publish(array);
+}
+
+diagnostic_msgs::DiagnosticStatus MvisNodelet::odometryStatus() {
+  const SerialWorker::Backlog backlog = worker_->backlog();
+  std::lock_guard<std::mutex> lock(odometry_mutex_);
+  OdometryTiming& t = odometry_timing_;
+  std::vector<double>& latency = t.latency_ms;
+  const auto quantile = [&latency](double q) {
+    if (latency.empty()) return 0.0;
+    const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(latency.size() - 1));
+    std::nth_element(latency.begin(), latency.begin() + static_cast<std::ptrdiff_t>(k),
+                     latency.end());
+    return latency[k];
+  };
+  char text[200];
+  std::uint8_t level = diagnostic_msgs::DiagnosticStatus::OK;
+  // The estimator more than a second behind: odometry still flows, from an older state.
+  if (backlog.oldest_s > 1.0) level = diagnostic_msgs::DiagnosticStatus::WARN;
+  if (!t.paused.empty()) {
+    level = diagnostic_msgs::DiagnosticStatus::WARN;
+    std::snprintf(text, sizeof(text), "paused: %s", t.paused.c_str());
+  } else {
+    std::snprintf(text, sizeof(text), "latency p50 %.2f ms, p99 %.2f ms; estimator %.2f s behind",
+                  quantile(0.5), quantile(0.99), backlog.oldest_s);
+  }
+  auto status = makeStatus(level, "odometry", text);
+  const auto add = [&status](const char* key, double value) {
+    diagnostic_msgs::KeyValue kv;
+    kv.key = key;
+    kv.value = std::to_string(value);
+    status.values.push_back(kv);
+  };
+  // Since the last diagnostics, then since the start.
+  add("latency_p50_ms", quantile(0.5));
+  add("latency_p99_ms", quantile(0.99));
+  add("latency_max_ms", quantile(1.0));
+  add("max_interval_ms", t.max_interval_ms);
+  // Since the start, from the histogram (to its 0.01 ms bins).
+  const auto since_start = [&t](double q) {
+    std::uint64_t total = 0;
+    for (std::uint32_t n : t.histogram) total += n;
+    const auto rank = static_cast<std::uint64_t>(q * static_cast<double>(total));
+    std::uint64_t seen = 0;
+    for (std::size_t b = 0; b < t.histogram.size(); ++b) {
+      seen += t.histogram[b];
+      if (seen > rank) return static_cast<double>(b + 1) * OdometryTiming::kBinMs;
+    }
+    return 0.0;
+  };
+  add("latency_p50_ms_since_start", since_start(0.5));
+  add("latency_p99_ms_since_start", since_start(0.99));
+  add("worst_latency_ms", t.worst_latency_ms);
+  add("worst_interval_ms", t.worst_interval_ms);
+  add("worst_reading_interval_ms", t.worst_input_interval_ms);
+  add("published", static_cast<double>(t.published));
+  add("estimator_backlog_s", backlog.oldest_s);
+  add("estimator_backlog_messages", static_cast<double>(backlog.tasks));
+  add("messages_dropped_backlog_full", static_cast<double>(backlog.refused));
+  latency.clear();
+  t.max_interval_ms = 0.0;
+  return status;
 }
 
 void MvisNodelet::publishTags() {

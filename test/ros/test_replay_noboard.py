@@ -36,7 +36,7 @@ class ReplayWithoutBoard(unittest.TestCase):
         time.sleep(1.0)
         for s in subs:
             s.unregister()
-        # At the base IMU's 500 Hz from about 5.5 s into the 8 s bag.
+        # At the base IMU's 500 Hz from about 5.5 s into the 8 s bag (played at half speed).
         self.assertGreaterEqual(len(odometry), 500)
         positions = [(m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.position.z)
                      for m in odometry]

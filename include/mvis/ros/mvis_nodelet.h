@@ -2,23 +2,30 @@
 // TF, the calibration and diagnostics. It converts and forwards; the work happens in the core.
 #pragma once
 
+#include <diagnostic_msgs/DiagnosticStatus.h>
 #include <image_transport/image_transport.h>
 #include <mvis/TagDetectionArray.h>
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <array>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "mvis/common/serial_worker.h"
 #include "mvis/estimator/estimator.h"
+#include "mvis/estimator/odometry_propagator.h"
 #include "mvis/frontend/tag_frontend.h"
 #include "mvis/rig/estimate_log.h"
 #include "mvis/rig/rig.h"
@@ -52,7 +59,8 @@ class MvisNodelet : public nodelet::Nodelet {
   void stayDown(const std::string& reason);
   void subscribeSensors();
 
-  void onImu(std::size_t sensor, const sensor_msgs::ImuConstPtr& msg);
+  // On the IMU's own callback queue and thread (imu_spinner_): never behind an image or a solve.
+  void onImu(std::size_t sensor, const ros::MessageEvent<sensor_msgs::Imu const>& event);
   void onImage(std::size_t camera, const sensor_msgs::ImageConstPtr& msg);
   void onCompressed(std::size_t camera, const sensor_msgs::CompressedImageConstPtr& msg);
   // An image of either kind, as 8-bit gray, through the front end and into the estimator.
@@ -61,12 +69,19 @@ class MvisNodelet : public nodelet::Nodelet {
   // mvis_nodelet_outputs.cpp: diagnostics, the board's markers, unobservable directions in words
   // ('; '-separated).
   void publishDiagnostics();
+  // Odometry's latency and interval since the last call (then cleared), the estimator's
+  // backlog.
+  diagnostic_msgs::DiagnosticStatus odometryStatus();
   static std::string joinedText(const std::vector<UnobservableCalibration>& unobservable);
-  // Called by the estimator (under estimator_mutex_) after each solve.
+  // Called by the estimator (on its thread, under estimator_mutex_) after each solve: the new
+  // anchor for odometry, the path, TF of the sensors, the calibration.
   void onUpdate(const EstimatorUpdate& update);
-  // Called by the estimator (under estimator_mutex_) with every base-IMU reading after the
-  // newest window state: odometry and the world/board/base TF at IMU rate.
-  void onPropagated(const EstimatorState& state);
+  // With every base reading (odometry_mutex_ held): the newest solved state propagated to it as
+  // odometry and the world/board/base TF; `arrival`: when the reading arrived, for the latency.
+  void publishOdometry(const EstimatorState& state, ros::WallTime arrival);
+  // Hands a call into the estimator to its thread; says so (throttled) when the backlog is
+  // full and the message is dropped.
+  void toEstimator(const std::string& sensor, std::function<void()> call);
   void publishCalibration();
   // The board's tags as rviz markers in the board frame (latched, once).
   void publishTags();
@@ -79,8 +94,8 @@ class MvisNodelet : public nodelet::Nodelet {
   // Counts the front end's result for a camera message and warns about dropped tags.
   void recordTags(std::size_t camera, const TagFrontendResult& result);
   // After a call into the estimator (estimator_mutex_ held): its complaint logged (throttled);
-  // a restart of the window (counters().restarts moved past `restarts`) clears the path and is
-  // logged at once.
+  // a restart of the window (counters().restarts moved past `restarts`) clears the path and the
+  // odometry's anchor and is logged at once.
   void noteEstimatorStatus(long restarts, const Status& status);
 
   NodeletOptions options_;
@@ -91,6 +106,35 @@ class MvisNodelet : public nodelet::Nodelet {
   std::vector<SensorTraffic> traffic_;  // inertial sensors first, then cameras
 
   std::unique_ptr<TagFrontend> frontend_;
+
+  // Odometry, on the IMU's thread: never waits for a solve.
+  std::mutex odometry_mutex_;  // guards the members up to the estimator's
+  std::unique_ptr<OdometryPropagator> odometry_;
+  Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();
+  // From a base reading's arrival (its receipt by ROS; the callback's start under simulated
+  // time) to its odometry message: this diagnostics period's latencies and largest interval
+  // between two odometry messages, and the worst since the start [ms]; the worst interval
+  // between the arrivals of their readings, which an odometry interval cannot beat.
+  struct OdometryTiming {
+    std::vector<double> latency_ms;
+    // Every latency since the start, in 0.01 ms bins to 100 ms (the last: beyond).
+    static constexpr double kBinMs = 0.01;
+    std::array<std::uint32_t, 10001> histogram{};
+    double max_interval_ms = 0.0;
+    double worst_latency_ms = 0.0;
+    double worst_interval_ms = 0.0;
+    double worst_input_interval_ms = 0.0;
+    ros::WallTime last_published, last_arrival;
+    std::uint64_t published = 0;
+    std::string paused;  // why the last base reading gave no odometry ("" if it did)
+  } odometry_timing_;
+  ros::CallbackQueue imu_queue_;
+  std::unique_ptr<ros::AsyncSpinner> imu_spinner_;
+  // The estimator's thread: every call into the estimator (readings, frames, services) runs
+  // there, in arrival order.
+  std::unique_ptr<SerialWorker> worker_;
+
   std::mutex estimator_mutex_;  // guards estimator_ and everything below it
   std::unique_ptr<Estimator> estimator_;
   std::string estimator_error_;  // the estimator's last complaint, for diagnostics
@@ -99,9 +143,6 @@ class MvisNodelet : public nodelet::Nodelet {
   // Calibration after every solve and pose covariances, for results; thinned past 5,000 rows a
   // table (~3 and ~2 MB), so that a node left running stays flat.
   EstimateLog estimate_log_{5000};
-  Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();
   nav_msgs::Path path_;
   // What the nodelet listens to and serves.
   struct Inputs {
