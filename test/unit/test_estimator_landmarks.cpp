@@ -6,6 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <iterator>
+#include <utility>
+#include <vector>
 
 #include "estimator_test_util.h"
 #include "mvis/sim/trajectory.h"
@@ -141,6 +145,61 @@ TEST(EstimatorLandmarks, StartsAndCalibratesOnOneTagPerFrame) {
     // With two tags needed per frame (the board's min_tags) it never starts.
     test::expectCalibrated(after, run.truth.cameras[c].name, 0.2, 5.0, 0.5);
   }
+}
+
+// The truth's pose at t: linear in position, geodesic in rotation between its samples.
+SE3 truthAt(const std::vector<StampedPose>& truth, TimeNs t) {
+  auto after = std::lower_bound(truth.begin(), truth.end(), t,
+                                [](const StampedPose& p, TimeNs s) { return p.first < s; });
+  if (after == truth.begin()) return after->second;
+  if (after == truth.end()) return truth.back().second;
+  const auto before = std::prev(after);
+  const double f =
+      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
+  return SE3(before->second.q.slerp(f, after->second.q),
+             (1.0 - f) * before->second.p + f * after->second.p);
+}
+
+// Without a board the first state is the world frame: every pose's error and covariance are
+// relative to it. The pose NEES stays near its 3 degrees of freedom. Seed 1 is the run whose
+// position NEES was 11 when the auxiliary sensors took part in the first batch with their
+// configured calibration held (doc/results.md, "Without the board").
+TEST(EstimatorLandmarks, PoseCovarianceIsHonestWithoutTheBoard) {
+  const SimRun run = simulate("sim_vi_rig", 30.0, 1);
+  Rig guess = run.guess;
+  guess.target.reset();
+  EstimatorOptions options = deterministic();
+  options.pixel_sigma_px = 0.5;
+  auto created = Estimator::create(guess, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  std::unique_ptr<Estimator> estimator = std::move(created).value();
+  std::vector<std::pair<EstimatorState, Eigen::Matrix<double, 6, 6>>> poses;
+  estimator->setUpdateCallback([&](const EstimatorUpdate& u) {
+    if (u.pose_covariance.allFinite()) poses.emplace_back(u.state, u.pose_covariance);
+  });
+  test::feed(run, estimator.get());
+  ASSERT_TRUE(estimator->initialized()) << estimator->status();
+  const EstimatorState first = estimator->trajectory().front();
+  // The truth in the estimate's world frame, through the first state (which the gauge holds).
+  const SE3 T_est_true = first.T_G_I * truthAt(run.truth_trajectory, first.stamp_ns).inverse();
+  double nees_rotation = 0.0, nees_position = 0.0;
+  for (const auto& [state, covariance] : poses) {
+    const SE3 truth = T_est_true * truthAt(run.truth_trajectory, state.stamp_ns);
+    const Eigen::Vector3d dtheta = lie::logQuat(state.T_G_I.q.conjugate() * truth.q);
+    const Eigen::Vector3d dp = truth.p - state.T_G_I.p;
+    nees_rotation += dtheta.dot(covariance.topLeftCorner<3, 3>().ldlt().solve(dtheta));
+    nees_position += dp.dot(covariance.bottomRightCorner<3, 3>().ldlt().solve(dp));
+  }
+  nees_rotation /= static_cast<double>(poses.size());
+  nees_position /= static_cast<double>(poses.size());
+  std::printf("pose NEES over %zu poses: orientation %.2f, position %.2f\n", poses.size(),
+              nees_rotation, nees_position);
+  ASSERT_GE(poses.size(), 15u);
+  // The bound per run, [1.5, 6] for 3 degrees of freedom, on the side that matters: an
+  // overconfident covariance. Measured 1.56 and 3.03 over 25 poses; with the auxiliary sensors
+  // in the first batch 7.35 and 12.93.
+  EXPECT_LT(nees_rotation, 6.0);
+  EXPECT_LT(nees_position, 6.0);
 }
 
 }  // namespace
