@@ -24,16 +24,22 @@ using test::inertialErrors;
 using test::SimRun;
 using test::simulate;
 
-TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
-  const SimRun run = simulate("sim_vi_rig", 15.0, 3);
+// An estimator for `run`'s rig without its board (tags as landmarks), detections' noise.
+std::unique_ptr<Estimator> withoutBoard(const SimRun& run) {
   Rig guess = run.guess;
-  const AprilGrid board = *guess.target;
   guess.target.reset();
   EstimatorOptions options = deterministic();
   options.pixel_sigma_px = 0.5;
   auto created = Estimator::create(guess, options);
-  ASSERT_TRUE(created.ok()) << created.status().message();
-  std::unique_ptr<Estimator> estimator = std::move(created).value();
+  EXPECT_TRUE(created.ok()) << created.status().message();
+  return created.ok() ? std::move(created).value() : nullptr;
+}
+
+TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
+  const SimRun run = simulate("sim_vi_rig", 15.0, 3);
+  const AprilGrid board = *run.guess.target;
+  std::unique_ptr<Estimator> estimator = withoutBoard(run);
+  ASSERT_TRUE(estimator);
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();
   estimator->setUpdateCallback([&](const EstimatorUpdate& u) { gravity_G = u.gravity_G; });
   test::feed(run, estimator.get());
@@ -147,17 +153,16 @@ TEST(EstimatorLandmarks, StartsAndCalibratesOnOneTagPerFrame) {
   }
 }
 
-// The truth's pose at t: linear in position, geodesic in rotation between its samples.
+// The truth's pose at t, interpolated as the report's Appendix A.2 (lie::interpolatePose).
 SE3 truthAt(const std::vector<StampedPose>& truth, TimeNs t) {
   auto after = std::lower_bound(truth.begin(), truth.end(), t,
                                 [](const StampedPose& p, TimeNs s) { return p.first < s; });
   if (after == truth.begin()) return after->second;
   if (after == truth.end()) return truth.back().second;
   const auto before = std::prev(after);
-  const double f =
-      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
-  return SE3(before->second.q.slerp(f, after->second.q),
-             (1.0 - f) * before->second.p + f * after->second.p);
+  return lie::interpolatePose(
+      before->second, after->second,
+      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first));
 }
 
 // Without a board the first state is the world frame: every pose's error and covariance are
@@ -166,13 +171,8 @@ SE3 truthAt(const std::vector<StampedPose>& truth, TimeNs t) {
 // configured calibration held (doc/results.md, "Without the board").
 TEST(EstimatorLandmarks, PoseCovarianceIsHonestWithoutTheBoard) {
   const SimRun run = simulate("sim_vi_rig", 30.0, 1);
-  Rig guess = run.guess;
-  guess.target.reset();
-  EstimatorOptions options = deterministic();
-  options.pixel_sigma_px = 0.5;
-  auto created = Estimator::create(guess, options);
-  ASSERT_TRUE(created.ok()) << created.status().message();
-  std::unique_ptr<Estimator> estimator = std::move(created).value();
+  std::unique_ptr<Estimator> estimator = withoutBoard(run);
+  ASSERT_TRUE(estimator);
   std::vector<std::pair<EstimatorState, Eigen::Matrix<double, 6, 6>>> poses;
   estimator->setUpdateCallback([&](const EstimatorUpdate& u) {
     if (u.pose_covariance.allFinite()) poses.emplace_back(u.state, u.pose_covariance);
