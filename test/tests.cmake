@@ -138,3 +138,4 @@ add_test(NAME python_evaluation
 mvis_core_test(test_imu_correction test/unit/test_imu_correction.cpp)
 mvis_core_test(test_imu_reintegration test/unit/test_imu_reintegration.cpp)
 mvis_core_test(test_estimator_landmarks test/unit/test_estimator_landmarks.cpp)
+mvis_core_test(test_estimator_batch test/unit/test_estimator_batch.cpp)

@@ -9,6 +9,7 @@
 
 #include <cctype>
 #include <chrono>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -68,6 +69,12 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   auto created = Estimator::create(initial, options.estimator);
   if (!created.ok()) return created.status();
   std::unique_ptr<Estimator> estimator = std::move(created).value();
+  const bool batch = options.estimator.batch;
+  if (batch && options.batch_start != nullptr) {
+    const Status started = estimator->setInitialCalibration(*options.batch_start);
+    if (!started.ok()) return started;
+  }
+  if (batch) estimator->setSeedTrajectory(options.batch_seed);
   auto frontend_made = TagFrontend::create(initial, options.frontend);
   if (!frontend_made.ok()) return frontend_made.status();
   std::unique_ptr<TagFrontend> frontend = std::move(frontend_made).value();
@@ -126,9 +133,9 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   };
 
   OfflineResult result;
-  estimator->setUpdateCallback([&result, &estimator](const EstimatorUpdate& u) {
+  estimator->setUpdateCallback([&result, &estimator, batch](const EstimatorUpdate& u) {
     result.update_ms.push_back(u.solve.total_s * 1e3);
-    if (u.solve.iterations > 0) {
+    if (u.solve.iterations > 0 && !batch) {
       result.solve_iterations.push_back(u.solve.iterations);
       result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
     }
@@ -245,10 +252,33 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
                          (missing.empty() ? "" : " (" + missing + ")"));
   }
   if (!missing.empty()) result.warnings.push_back(missing);
-  const Status covariance = estimator->computeCovariance();
-  if (!covariance.ok()) result.warnings.push_back(covariance.message());
+  if (batch) {
+    auto solved = estimator->solveBatch(options.batch_iterations, options.batch_progress);
+    if (!solved.ok()) return solved.status();
+    result.batch = std::move(solved).value();
+    result.wall_seconds = msSince(start) * 1e-3;
+  } else {
+    const Status covariance = estimator->computeCovariance();
+    if (!covariance.ok()) result.warnings.push_back(covariance.message());
+  }
   result.calibration = estimator->calibration();
   result.trajectory = estimator->trajectory();
+  if (batch) {
+    // One solution: its calibration once, and every state with its covariance where computed.
+    result.log = EstimateLog();
+    if (!result.trajectory.empty()) {
+      result.log.addCalibration(result.trajectory.back().stamp_ns, result.calibration);
+    }
+    const auto covariances = estimator->batchPoseCovariances();
+    std::size_t k = 0;
+    for (const EstimatorState& s : result.trajectory) {
+      while (k < covariances.size() && covariances[k].first < s.stamp_ns) ++k;
+      Eigen::Matrix<double, 6, 6> cov;
+      cov.setConstant(std::numeric_limits<double>::quiet_NaN());
+      if (k < covariances.size() && covariances[k].first == s.stamp_ns) cov = covariances[k].second;
+      result.log.addPose(s.stamp_ns, s.T_G_I, cov);
+    }
+  }
   result.counters = estimator->counters();
   result.sigma_inflation = estimator->sigmaInflation();
   result.status = estimator->status();

@@ -8,10 +8,13 @@
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
-//              [--failure-step-sigma S] [--frame-gate-sigma S]
+//              [--failure-step-sigma S] [--frame-gate-sigma S] [--batch [--batch-iterations N]]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
+// With --batch the online pass is followed by one solve over every state of the recording
+// (report Eq. 23) started from the online result: the result directory is the batch's, the
+// online pass's goes to DIR/online.
 #include <unistd.h>
 
 #include <algorithm>
@@ -45,6 +48,7 @@ int usage(const char* message) {
                "                    [--imu-step S]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
                "                    [--failure-step-sigma S] [--frame-gate-sigma S]\n"
+               "                    [--batch [--batch-iterations N]]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --imu-chain F, --cam-chain F, --target F  other names for those files\n"
@@ -90,7 +94,12 @@ int usage(const char* message) {
                "                   see config/mvis.yaml)\n"
                "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
                "                   where the trusted estimate puts them are dropped, and so\n"
-               "                   are single corners beyond it (default 10, 0: off)\n",
+               "                   are single corners beyond it (default 10, 0: off)\n"
+               "  --batch          after the online pass, solve every state of the recording\n"
+               "                   and the calibration at once from its result (the same\n"
+               "                   factors and priors), with the batch's covariance; the\n"
+               "                   online result goes to OUTPUT/online\n"
+               "  --batch-iterations N  at most N iterations of the batch (default 100)\n",
                message);
   return 2;
 }
@@ -99,6 +108,39 @@ double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
+}
+
+// The batch's solve and its whitened residuals per sensor.
+void printBatch(const mvis::OfflineResult& batch, const mvis::OfflineResult& online) {
+  const mvis::BatchSummary& b = *batch.batch;
+  std::printf(
+      "\nbatch: %d states, %d frames, %d corners; %d iterations (%s), cost %.6g -> %.6g; solve "
+      "%.1f s, with covariances %.1f s; reading the bag again and the solve %.1f s (%.1fx real "
+      "time)\n",
+      b.solve.states, b.solve.frames, b.solve.corners, b.solve.iterations,
+      b.converged ? "converged" : "iteration limit", b.initial_cost, b.solve.cost, b.solve.solve_s,
+      b.solve.total_s, batch.wall_seconds, batch.bag_seconds / batch.wall_seconds);
+  const mvis::TimeNs t0 = online.trajectory.empty() ? 0 : online.trajectory.front().stamp_ns;
+  if (!batch.trajectory.empty()) {
+    // A restart (a long hole in the base IMU's readings) leaves the batch what follows it.
+    std::printf(
+        "batch: its states span %.2f-%.2f s of the online pass's %.2f s%s\n",
+        mvis::toSeconds(batch.trajectory.front().stamp_ns - t0),
+        mvis::toSeconds(batch.trajectory.back().stamp_ns - t0),
+        online.trajectory.empty() ? 0.0 : mvis::toSeconds(online.trajectory.back().stamp_ns - t0),
+        batch.counters.restarts > 0 ? " (it started over: see its warnings)" : "");
+  }
+  std::printf(
+      "batch residuals, whitened, at the solution (a camera's RMS in px; chi-square per "
+      "residual about 1 when the noise model fits):\n"
+      "sensor  kind            factors  residuals  chi2/residual       RMS  worst states (t [s]: "
+      "chi2/residual)\n");
+  for (const auto& s : b.residuals) {
+    std::printf("%-7s %-14s %8ld %10ld %14.3f %9.4f ", s.sensor.c_str(), s.kind.c_str(), s.factors,
+                s.residuals, s.chi_square / static_cast<double>(s.residuals), s.rms);
+    for (const auto& [t, chi2] : s.worst) std::printf(" %.2f: %.2f", mvis::toSeconds(t - t0), chi2);
+    std::printf("\n");
+  }
 }
 
 }  // namespace
@@ -124,6 +166,8 @@ int main(int argc, char** argv) {
   int window = mvis::EstimatorOptions{}.window_size;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
+  bool batch = false;
+  int batch_iterations = mvis::OfflineOptions{}.batch_iterations;
   for (int i = 1; i < argc; ++i) {
     const auto value = [&](std::string* out) {
       if (i + 1 >= argc) return false;
@@ -214,6 +258,14 @@ int main(int argc, char** argv) {
       const double s = value(&v) ? std::atof(v.c_str()) : -1.0;
       if (!(s == 0.0 || s >= 3.0)) return usage((arg + " takes 0 (off) or sigmas >= 3").c_str());
       (arg == "--failure-step-sigma" ? failure_step_sigma : frame_gate_sigma) = s;
+    } else if (arg == "--batch") {
+      batch = true;
+    } else if (arg == "--batch-iterations") {
+      std::string v;
+      if (!value(&v) || std::atoi(v.c_str()) < 1) {
+        return usage("--batch-iterations takes a count >= 1");
+      }
+      batch_iterations = std::atoi(v.c_str());
     } else if (arg == "--interpolation") {
       if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
         return usage("--interpolation takes imu or report");
@@ -282,18 +334,56 @@ int main(int argc, char** argv) {
       if (share >= 1.0) std::fprintf(stderr, "\n");
     };
   }
-  const auto result = mvis::runOffline(initial.value(), bag_path, options);
-  if (!result.ok()) {
-    std::fprintf(stderr, "mvis_offline: %s\n", result.status().message().c_str());
+  const auto online = mvis::runOffline(initial.value(), bag_path, options);
+  if (!online.ok()) {
+    std::fprintf(stderr, "mvis_offline: %s\n", online.status().message().c_str());
     return 1;
   }
-  const mvis::OfflineResult& r = result.value();
-  for (const auto& w : r.warnings) std::fprintf(stderr, "mvis_offline: warning: %s\n", w.c_str());
-  if (!r.warning_kinds.empty()) {
+  std::optional<mvis::StatusOr<mvis::OfflineResult>> batched;
+  if (batch) {
+    // The same factors and priors over every state, from the online result.
+    mvis::OfflineOptions b = options;
+    b.estimator.batch = true;
+    b.estimator.observability_horizon_s = 1e9;  // the degeneracy check asks the whole recording
+    b.estimator.failure_step_sigma = 0.0;       // nothing to start over to
+    b.batch_start = &online.value().calibration;
+    b.batch_seed = online.value().trajectory;
+    b.batch_iterations = batch_iterations;
+    b.batch_progress = [](int iteration, double cost) {
+      std::fprintf(stderr, "batch: iteration %d, cost %.6g\n", iteration, cost);
+    };
+    if (b.progress) std::fprintf(stderr, "batch: reading the bag again\n");
+    batched = mvis::runOffline(initial.value(), bag_path, b);
+    if (!batched->ok()) {
+      std::fprintf(stderr, "mvis_offline: batch: %s\n", batched->status().message().c_str());
+      return 1;
+    }
+  }
+  const mvis::OfflineResult& r = batched ? batched->value() : online.value();
+  for (const auto& w : online.value().warnings) {
+    std::fprintf(stderr, "mvis_offline: warning: %s\n", w.c_str());
+  }
+  if (!online.value().warning_kinds.empty()) {
     std::fprintf(stderr, "mvis_offline: what went wrong in the bag, by kind (count, first at):\n");
-    for (const auto& w : r.warning_kinds) {
+    for (const auto& w : online.value().warning_kinds) {
       std::fprintf(stderr, "  %6ldx  %s  (first at %.2f s)\n", w.count, w.example.c_str(),
                    w.first_s);
+    }
+  }
+  if (batched) {
+    for (const auto& w : r.warnings) {
+      std::fprintf(stderr, "mvis_offline: batch: warning: %s\n", w.c_str());
+    }
+    for (const auto& w : r.warning_kinds) {
+      std::fprintf(stderr, "mvis_offline: batch: %ldx  %s  (first at %.2f s)\n", w.count,
+                   w.example.c_str(), w.first_s);
+    }
+    const mvis::Status saved_online =
+        mvis::writeResultDirectory(output_dir + "/online", online.value().calibration,
+                                   online.value().trajectory, online.value().log);
+    if (!saved_online.ok()) {
+      std::fprintf(stderr, "mvis_offline: %s\n", saved_online.message().c_str());
+      return 1;
     }
   }
 
@@ -304,39 +394,41 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  const mvis::OfflineResult& o = online.value();
   std::printf(
       "mvis_offline: %.1f s of data in %.1f s (%.1fx real time); %ld IMU, %ld image, "
       "%ld detection messages, %ld dropped\n",
-      r.bag_seconds, r.wall_seconds, r.bag_seconds / r.wall_seconds, r.imu_messages,
-      r.image_messages, r.detection_messages, r.dropped_messages);
-  const mvis::EstimatorCounters& c = r.counters;
+      o.bag_seconds, o.wall_seconds, o.bag_seconds / o.wall_seconds, o.imu_messages,
+      o.image_messages, o.detection_messages, o.dropped_messages);
+  const mvis::EstimatorCounters& c = o.counters;
   std::printf(
       "failure checks: %ld restarts, %ld failures, %ld frames and %ld corners dropped, %ld "
       "intrinsics inconsistencies, %ld held gravity sensitivities refuted; the calibration "
       "moves %.1fx what its sigmas allow\n",
       c.restarts, c.failures, c.frames_rejected, c.corners_rejected, c.inconsistencies,
-      c.held_intrinsics_misfits, r.sigma_inflation);
+      c.held_intrinsics_misfits, o.sigma_inflation);
   double update_total_ms = 0.0;
-  for (double ms : r.update_ms) update_total_ms += ms;
+  for (double ms : o.update_ms) update_total_ms += ms;
   std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.1f s",
-              r.update_ms.size(), percentile(r.update_ms, 0.5), percentile(r.update_ms, 0.99),
+              o.update_ms.size(), percentile(o.update_ms, 0.5), percentile(o.update_ms, 0.99),
               update_total_ms * 1e-3);
-  if (!r.solve_iterations.empty()) {
+  if (!o.solve_iterations.empty()) {
     double iterations = 0.0;
-    for (int i : r.solve_iterations) iterations += i;
-    std::printf("; %zu solves, %.1f iterations each", r.solve_iterations.size(),
-                iterations / r.solve_iterations.size());
+    for (int i : o.solve_iterations) iterations += i;
+    std::printf("; %zu solves, %.1f iterations each", o.solve_iterations.size(),
+                iterations / o.solve_iterations.size());
   }
-  if (!r.frontend_ms.empty()) {
-    std::printf("; tag detection median %.1f ms, p99 %.1f ms", percentile(r.frontend_ms, 0.5),
-                percentile(r.frontend_ms, 0.99));
+  if (!o.frontend_ms.empty()) {
+    std::printf("; tag detection median %.1f ms, p99 %.1f ms", percentile(o.frontend_ms, 0.5),
+                percentile(o.frontend_ms, 0.99));
   }
-  if (!r.decode_ms.empty()) {
-    std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(r.decode_ms, 0.5),
-                percentile(r.decode_ms, 0.99));
+  if (!o.decode_ms.empty()) {
+    std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(o.decode_ms, 0.5),
+                percentile(o.decode_ms, 0.99));
   }
+  if (batched) printBatch(r, o);
   std::printf(
-      "\n\n%s",
+      "\n\n%s%s", batched ? "batch calibration:\n" : "",
       mvis::calibrationTable(initial.value(), r.calibration, truth ? &*truth : nullptr).c_str());
   if (truth) {
     auto true_trajectory = mvis::readTumTrajectory(truth_dir + "/trajectory.tum");
@@ -344,6 +436,11 @@ int main(int argc, char** argv) {
       std::printf("\nATE (position RMSE, board frame, no alignment): %.2f mm over %zu states\n",
                   mvis::positionRmse(r.trajectory, true_trajectory.value()) * 1e3,
                   r.trajectory.size());
+      if (batched) {
+        std::printf("ATE of the online pass: %.2f mm over %zu states\n",
+                    mvis::positionRmse(online.value().trajectory, true_trajectory.value()) * 1e3,
+                    online.value().trajectory.size());
+      }
     } else if (true_trajectory.ok()) {
       std::printf(
           "\nATE (position RMSE, SE(3)-aligned: without a board the estimate's frame is its "

@@ -81,6 +81,16 @@ inline SimRun simulate(const std::string& rig_dir, double duration_s, std::uint6
   return run;
 }
 
+// The VI-Rig without any noise (IMU and corners exact), from the same rough guess as the noisy
+// runs: what is left is bias in the model itself.
+inline SimRun simulateNoiseFree(double duration_s, std::uint64_t seed) {
+  return simulate("sim_vi_rig", duration_s, seed, MotionKind::kHandheld, false, nullptr,
+                  [](SimulationConfig* c) {
+                    c->imu_noise = false;
+                    c->pixel_noise_px = 0.0;
+                  });
+}
+
 // The solver's time budget makes results depend on the machine's load; tests lift it.
 inline EstimatorOptions deterministic() {
   EstimatorOptions o;
@@ -171,6 +181,18 @@ inline void expectCalibrated(const CameraErrors& e, const std::string& name, dou
   EXPECT_LT(e.rotation_sigma_ratio.maxCoeff(), 3.0) << name;
   EXPECT_LT(e.translation_sigma_ratio.maxCoeff(), 3.0) << name;
   EXPECT_LT(e.time_offset_sigma_ratio, 3.0) << name;
+}
+
+// The truth's pose at t, interpolated as the report's Appendix A.2 (lie::interpolatePose).
+inline SE3 truthAt(const std::vector<StampedPose>& truth, TimeNs t) {
+  auto after = std::lower_bound(truth.begin(), truth.end(), t,
+                                [](const StampedPose& p, TimeNs s) { return p.first < s; });
+  if (after == truth.begin()) return after->second;
+  if (after == truth.end()) return truth.back().second;
+  const auto before = std::prev(after);
+  return lie::interpolatePose(
+      before->second, after->second,
+      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first));
 }
 
 }  // namespace mvis::test

@@ -114,11 +114,7 @@ TEST(Estimator, CalibratesEveryCameraOfTheViRig) {
 // (EstimatorOptions::imu_integration_step_s) the auxiliary sensors' discretization added to it
 // (cameras 0.213 mm, 0.14 mm from the truth): see the next test.
 TEST(Estimator, NoiseFreeDataLeaveNoBias) {
-  const SimRun run = simulate("sim_vi_rig", 20.0, 3, MotionKind::kHandheld, false, nullptr,
-                              [](SimulationConfig* c) {
-                                c->imu_noise = false;
-                                c->pixel_noise_px = 0.0;
-                              });
+  const SimRun run = simulateNoiseFree(20.0, 3);
   EstimatorOptions options = deterministic();
   options.pixel_sigma_px = 0.5;  // weights as in the noisy runs
   const auto estimator = runFrom(run.guess, run, options);

@@ -153,18 +153,6 @@ TEST(EstimatorLandmarks, StartsAndCalibratesOnOneTagPerFrame) {
   }
 }
 
-// The truth's pose at t, interpolated as the report's Appendix A.2 (lie::interpolatePose).
-SE3 truthAt(const std::vector<StampedPose>& truth, TimeNs t) {
-  auto after = std::lower_bound(truth.begin(), truth.end(), t,
-                                [](const StampedPose& p, TimeNs s) { return p.first < s; });
-  if (after == truth.begin()) return after->second;
-  if (after == truth.end()) return truth.back().second;
-  const auto before = std::prev(after);
-  return lie::interpolatePose(
-      before->second, after->second,
-      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first));
-}
-
 // Without a board the first state is the world frame: every pose's error and covariance are
 // relative to it. The pose NEES stays near its 3 degrees of freedom. Seed 1 is the run whose
 // position NEES was 11 when the auxiliary sensors took part in the first batch with their
@@ -181,10 +169,10 @@ TEST(EstimatorLandmarks, PoseCovarianceIsHonestWithoutTheBoard) {
   ASSERT_TRUE(estimator->initialized()) << estimator->status();
   const EstimatorState first = estimator->trajectory().front();
   // The truth in the estimate's world frame, through the first state (which the gauge holds).
-  const SE3 T_est_true = first.T_G_I * truthAt(run.truth_trajectory, first.stamp_ns).inverse();
+  const SE3 T_est_true = first.T_G_I * test::truthAt(run.truth_trajectory, first.stamp_ns).inverse();
   double nees_rotation = 0.0, nees_position = 0.0;
   for (const auto& [state, covariance] : poses) {
-    const SE3 truth = T_est_true * truthAt(run.truth_trajectory, state.stamp_ns);
+    const SE3 truth = T_est_true * test::truthAt(run.truth_trajectory, state.stamp_ns);
     const Eigen::Vector3d dtheta = lie::logQuat(state.T_G_I.q.conjugate() * truth.q);
     const Eigen::Vector3d dp = truth.p - state.T_G_I.p;
     nees_rotation += dtheta.dot(covariance.topLeftCorner<3, 3>().ldlt().solve(dtheta));

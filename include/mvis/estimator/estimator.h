@@ -44,6 +44,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mvis/common/lie.h"
@@ -214,6 +215,14 @@ struct EstimatorOptions {
   // (counter held_intrinsics_misfits; src/core/estimator/inertial_fit.h). 0: not tested.
   double held_intrinsics_horizon_s = 30.0;
   double held_intrinsics_p = 1e-4;
+  // Batch over a whole recording (report Eq. 23; mvis_offline --batch): the window keeps every
+  // state (nothing is marginalized, window_size and solve_every are not used), and after the
+  // first batch nothing is solved while data arrives: new states start where the seed
+  // trajectory (Estimator::setSeedTrajectory, e.g. the online pass's) puts them, or are
+  // predicted by the IMU where it has none. Estimator::solveBatch then solves every state and
+  // the calibration at once. The degeneracy check looks at observability_horizon_s of motion as
+  // online: set it to the recording's length to ask the whole recording.
+  bool batch = false;
 };
 
 // Checked at creation: a clear message naming the option.
@@ -289,6 +298,28 @@ struct EstimatorUpdate {
   PropagationAnchor anchor;
   // What the latest observability check found (observability_ratio); empty when all is.
   std::vector<UnobservableCalibration> unobservable;
+};
+
+// One sensor's whitened residuals at the end of a batch (Estimator::solveBatch).
+struct SensorResiduals {
+  std::string sensor;  // its name, or "priors" (the calibration's and the first state's)
+  std::string kind;    // "camera", "base IMU", "auxiliary IMU", "gyroscope", "prior"
+  long factors = 0;    // residual blocks
+  long residuals = 0;  // scalar residuals
+  // Sum of squared whitened residuals (no robust loss): about `residuals` (less the parameters'
+  // share) when the noise model fits.
+  double chi_square = 0.0;
+  double rms = 0.0;  // [px] for a camera (whitened RMS x pixel_sigma_px), else whitened
+  // The worst window states by their factors' chi-square per residual (their times, base
+  // clock), worst first, at most five.
+  std::vector<std::pair<TimeNs, double>> worst;
+};
+
+struct BatchSummary {
+  SolveSummary solve;
+  bool converged = false;  // Ceres's convergence test met (not the iteration limit)
+  double initial_cost = 0.0;
+  std::vector<SensorResiduals> residuals;  // cameras, base IMU, auxiliary sensors, priors
 };
 
 // Counters of what the estimator dropped, and why.
@@ -377,6 +408,21 @@ class Estimator {
   // held_intrinsics_horizon_s, and its degrees of freedom in *dof (0: nothing held and tested,
   // or less than a full horizon of data; EstimatorOptions::held_intrinsics_p).
   double heldIntrinsicsStatistic(std::size_t sensor, int* dof) const;
+
+  // Batch (EstimatorOptions::batch). Before any data: the calibration starts from `start`'s
+  // values (the priors stay the configured rig's), applied when the window is made.
+  Status setInitialCalibration(const Rig& start);
+  // Before any data: where new states start (sorted by time; interpolated, none across holes
+  // over 0.2 s).
+  void setSeedTrajectory(std::vector<EstimatorState> seed);
+  // After the data: solves every state and the calibration together (at most max_iterations,
+  // `progress` called after each with the iteration and the cost), then the calibration's
+  // standard deviations (calibration()) and pose covariances every second of the trajectory
+  // (batchPoseCovariances), and the whitened residuals per sensor.
+  StatusOr<BatchSummary> solveBatch(int max_iterations,
+                                    const std::function<void(int, double)>& progress);
+  // After solveBatch: [dtheta, dp] covariances of window states about a second apart.
+  std::vector<std::pair<TimeNs, Eigen::Matrix<double, 6, 6>>> batchPoseCovariances() const;
 
  private:
   struct Impl;

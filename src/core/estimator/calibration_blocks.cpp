@@ -335,5 +335,24 @@ void CalibrationBlocks::write(Rig* out) const {
   }
 }
 
+void CalibrationBlocks::setValues(const Rig& start) {
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    CameraBlocks& cb = *cameras_[c];
+    const Camera& cam = start.cameras[c];
+    se3ToPose(cam.T_cam_imu, cb.extrinsic);
+    cb.time_offset[0] = cam.timeshift_cam_imu;
+    for (int i = 0; i < 4; ++i) {
+      cb.intrinsics[i] = cam.intrinsics[i];
+      cb.intrinsics[4 + i] = cam.distortion_coeffs[i];
+    }
+  }
+  for (auto& a : aux_) {
+    const InertialSensor& s = start.inertial[a->sensor];
+    se3ToPose(s.T_i_b, a->extrinsic);
+    Eigen::Map<Eigen::Quaterniond>{a->rotation} = s.T_i_b.q;
+    a->time_offset[0] = s.time_offset;
+  }
+}
+
 }  // namespace estimator_internal
 }  // namespace mvis

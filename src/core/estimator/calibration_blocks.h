@@ -104,6 +104,8 @@ class CalibrationBlocks {
   Eigen::VectorXd latestStd(const double* block) const;
   // The current calibration into `out` (a copy of the configured rig).
   void write(Rig* out) const;
+  // The blocks to `start`'s values (a rig of the same sensors; the priors are unchanged).
+  void setValues(const Rig& start);
 
  private:
   const Rig& rig_;

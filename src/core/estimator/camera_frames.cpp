@@ -322,8 +322,9 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
     // The first batch (before `initialized`) always has the loss per frame: its residuals are
     // mostly the rough initial calibration's, which a per-corner loss would take for outliers
     // (it left the batch's states tens of millimetres off), and plain squares would let a
-    // wrong detection in it bias everything that follows.
-    if (options_.robust_loss == RobustLoss::kFrame || !initialized) {
+    // wrong detection in it bias everything that follows. A batch starts from a solved
+    // calibration: its first frames count as every other.
+    if (options_.robust_loss == RobustLoss::kFrame || (!initialized && !options_.batch)) {
       loss = landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber_.get();
     } else if (options_.huber_sigma > 0.0) {
       factor->useCornerLoss(options_.huber_sigma);

@@ -31,11 +31,6 @@ constexpr double kMaxBoardDistance = 1e3;  // [m]
 // A failure found after a solve: the window starts over from a calibration trusted at least
 // this long before it (a slowly growing fault passes the checks for a while).
 constexpr TimeNs kFailureLookbackNs = 5 * kNsPerSecond;
-// A calibration is offered to be trusted only after the window has run on this much data: the
-// first seconds' covariances are taken far from the solution and are overconfident (restarted
-// from the calibration trusted after 2.5 s, a clean small-rig run failed the step test at 10
-// sigma a second later).
-constexpr double kTrustAfterS = 10.0;
 // Window states without any camera frame for this long: the window starts over (a camera
 // silent for 5 s, or every frame dropped by the gate). Not shorter: a live node without a board,
 // behind on a loaded machine, lost frames for 1.1 s and started over for nothing.
@@ -218,7 +213,7 @@ void Estimator::Impl::process() {
       frames.attachWaiting(initialized);
       aux.extend();
       SolveSummary summary;
-      if (++frames_since_solve >= options.solve_every) {
+      if (!options.batch && ++frames_since_solve >= options.solve_every) {
         monitor.check(window.problem());  // holds what the motion cannot observe before solving
         summary = solve(options.max_iterations);
         frames_since_solve = 0;
@@ -232,7 +227,9 @@ void Estimator::Impl::process() {
         summary = window.summary();  // the new state as the IMU predicted it
         summary.usable = true;
       }
-      if (static_cast<int>(window.size()) > options.window_size) marginalizeOldest();
+      if (!options.batch && static_cast<int>(window.size()) > options.window_size) {
+        marginalizeOldest();
+      }
       publish(summary, start);
       if (!covariance_failure.empty()) {
         ++counters.failures;
@@ -280,15 +277,19 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   const TimeNs last_t = last.t;
   auto pre = imu.preintegrate(last_t, t, bg, ba);  // raw with intrinsics: the factor corrects
   auto s = makeState(t);
-  Eigen::Quaterniond q;
-  Eigen::Vector3d p, v;
-  // The state as it stays until the next solve (solve_every): from corrected readings.
-  (intrinsics.block(0) != nullptr ? corrected(last, t) : pre)
-      ->predict(poseRotation(last.pose), posePosition(last.pose), Eigen::Vector3d(last.speed_bias),
-                Eigen::Vector3d(calibration.gravity()), &q, &p, &v);
-  se3ToPose(SE3(q, p), s->pose);
-  Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
-  std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
+  // The state as it stays until the next solve (solve_every): from corrected readings, or in a
+  // batch where the seed trajectory has it.
+  if (!seedAt(t, s.get())) {
+    Eigen::Quaterniond q;
+    Eigen::Vector3d p, v;
+    (intrinsics.block(0) != nullptr ? corrected(last, t) : pre)
+        ->predict(poseRotation(last.pose), posePosition(last.pose),
+                  Eigen::Vector3d(last.speed_bias), Eigen::Vector3d(calibration.gravity()), &q,
+                  &p, &v);
+    se3ToPose(SE3(q, p), s->pose);
+    Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
+    std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
+  }
   window.push(std::move(s));
   addImuFactor(window.size() - 2, pre);
   frames.add(frame, window.size() - 1, initialized);
@@ -366,7 +367,8 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   u.gravity_G = Eigen::Vector3d(calibration.gravity());
   u.unobservable = monitor.unobservable();
   u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
-  if (options.covariance_every > 0 && solves_since_covariance >= options.covariance_every) {
+  if (!options.batch && options.covariance_every > 0 &&
+      solves_since_covariance >= options.covariance_every) {
     Eigen::Matrix<double, 6, 6> pose_cov;
     if (covariance(&pose_cov).ok()) {
       u.pose_covariance = pose_cov;
@@ -375,64 +377,6 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   }
   u.solve.total_s = seconds(start, Clock::now());
   if (callback) callback(u);
-}
-
-Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
-  solves_since_covariance = 0;
-  if (window.empty()) return Status::Error("no state yet");
-  ceres::Problem* problem = window.problem();
-  estimator_internal::BlockCovariance cov;
-  std::vector<std::pair<const double*, const double*>> blocks;
-  double* newest = window.newest().pose;
-  blocks.emplace_back(newest, newest);
-  calibration.covarianceBlocks(*problem, &blocks);
-  intrinsics.covarianceBlocks(*problem, &blocks);
-  if (!cov.compute(blocks, problem)) return Status::Error("covariance computation failed");
-  const estimator_internal::TangentCovariance tangent = [&](const double* block) {
-    return monitor.tangentCovariance(*problem, cov, block);
-  };
-  intrinsics.updateCovariance(*problem, tangent);
-  if (pose_cov != nullptr) {
-    cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
-    if (monitor.holding()) {
-      const Status s = monitor.poseCovarianceWithHeld(problem, newest, pose_cov);
-      if (!s.ok()) return s;
-    }
-  }
-  calibration.updateStd(*problem, cov, tangent);
-  // A candidate for the trusted calibration (trusted once the next one is offered).
-  if (initialized && window_data_s >= kTrustAfterS && failure().empty()) {
-    auto offered = trustedBlocks(false);
-    std::vector<const double*> estimated;
-    for (const auto& b : offered) {
-      if (b.estimated) estimated.push_back(b.x);
-    }
-    const auto verdict =
-        trusted.offer(std::move(offered), monitor.jointTangentCovariance(*problem, cov, estimated),
-                      window.newestTime());
-    if (!verdict.failure.empty() && options.failure_step_sigma > 0.0) {
-      covariance_failure = "estimate failed: " + verdict.failure;
-    }
-    if (!verdict.inconsistent.empty() && options.failure_step_sigma > 0.0) {
-      ++counters.inconsistencies;
-      calibration_note = verdict.inconsistent;
-    }
-    // Said when the inflation first passes 4, 16, 64 (sigma 2x, 4x, 8x too small).
-    const double lambda = trusted.inflation();
-    if (lambda >= 4.0 * said_inflation) {
-      while (lambda >= 4.0 * said_inflation) said_inflation *= 4.0;
-      std::ostringstream note;
-      note << "the calibration moves " << std::setprecision(2) << std::sqrt(lambda)
-           << "x more between covariances than its standard deviations allow (median "
-              "chi-square of its steps over their expectation): the model does not fit this "
-              "data (e.g. held intrinsics that are off, an unmodelled effect, corners with "
-              "correlated errors); the reported sigmas are too small by about that much, and the "
-              "failure checks allow for it";
-      calibration_note = note.str();
-    }
-    if (trusted.fromCovariance()) frames.setGate(options.frame_gate_sigma);
-  }
-  return Status::Ok();
 }
 
 void Estimator::Impl::trimBuffers() {
@@ -584,11 +528,6 @@ Estimator::Restart Estimator::lastRestart() const {
   return {impl_->last_restart, impl_->last_restart_ns};
 }
 double Estimator::sigmaInflation() const { return std::sqrt(impl_->trusted.inflation()); }
-
-double Estimator::heldIntrinsicsStatistic(std::size_t sensor, int* dof) const {
-  *dof = 0;
-  return sensor < impl_->rig.inertial.size() ? impl_->inertial_fit.statistic(sensor, dof) : 0.0;
-}
 void Estimator::reset() {
   impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());
   impl_->restart_note.clear();  // the caller knows

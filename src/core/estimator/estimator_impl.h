@@ -7,7 +7,10 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "aux_sensors.h"
 #include "calibration_blocks.h"
@@ -63,6 +66,11 @@ struct Estimator::Impl {
   TimeNs last_restart_ns = 0;      // base clock
   int solves_since_covariance = 0;
   int frames_since_solve = 0;
+  // Batch (EstimatorOptions::batch; estimator_batch.cpp): the calibration's starting values, the
+  // seed trajectory, and the pose covariances the batch computed.
+  std::optional<Rig> start;
+  std::vector<EstimatorState> seed;
+  std::vector<std::pair<TimeNs, Eigen::Matrix<double, 6, 6>>> batch_pose_covariances;
 
   Impl(const Rig& r, const EstimatorOptions& o);
 
@@ -114,6 +122,16 @@ struct Estimator::Impl {
   // Status for the caller: a restart not yet reported, else `s`, or the auxiliary sensors'
   // pending warning if s is fine.
   Status withWarning(Status s);
+
+  // ---- batch (estimator_batch.cpp) ------------------------------------------------------------
+  // The seed trajectory at t into s's pose, velocity and biases; false where it has none.
+  bool seedAt(TimeNs t, State* s) const;
+  // The calibration blocks to `start`'s values (after the priors were made at the configured).
+  void applyStart();
+  StatusOr<BatchSummary> solveBatch(int max_iterations,
+                                    const std::function<void(int, double)>& progress);
+  // The whitened residuals per sensor at the current estimate.
+  std::vector<SensorResiduals> residualSummary();
 
   // ---- initialization (estimator_startup.cpp) ----------------------------------------------
   // The camera's board pose with its current intrinsics (without a board: on its pose tag).

@@ -114,6 +114,8 @@ void Estimator::Impl::initialize() {
   newProblem();
   calibration.addTo(window.problem(), trusted);
   intrinsics.addTo(window.problem(), trusted);
+  // A batch's starting calibration (the priors, made above, stay the configured ones).
+  applyStart();
   std::vector<double*> trusted_blocks;
   if (ceres::CostFunction* prior = trusted.jointPrior(&trusted_blocks)) {
     window.problem()->AddResidualBlock(prior, nullptr, trusted_blocks);
@@ -203,7 +205,9 @@ void Estimator::Impl::initialize() {
   for (double* b : held_for_batch) problem->SetParameterBlockVariable(b);
   const std::string& clock = startup.clockMessage();
   status_text = clock.empty() ? "running" : "running; " + clock;
-  while (static_cast<int>(window.size()) > options.window_size) marginalizeOldest();
+  while (!options.batch && static_cast<int>(window.size()) > options.window_size) {
+    marginalizeOldest();
+  }
   if (landmark_mode) aux.extend();  // without a board: after the batch (above)
   publish(summary, start);
 }

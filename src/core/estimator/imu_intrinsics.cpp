@@ -212,5 +212,20 @@ std::optional<Eigen::MatrixXd> ImuIntrinsicsBlocks::latestCovariance(const doubl
   return std::nullopt;
 }
 
+void ImuIntrinsicsBlocks::setValues(const Rig& start) {
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    ImuIntrinsicsBlock* b = blocks_[i].get();
+    if (b == nullptr) continue;
+    const ImuIntrinsics& in = start.inertial[i].intrinsics;
+    intrinsicsToBlock(in, b->x, b->frame.kalibr);
+    // intrinsicsToBlock puts theta = 0 at `in`'s own rotation; the block's rotation is relative
+    // to R0 (the configured one): R^T = R0 Exp(theta), so theta = Log(R0^T R^T).
+    const Eigen::Matrix3d R = b->frame.kalibr ? in.R_IMUtoGYRO : in.R_IMUtoACC;
+    Eigen::Map<Eigen::Vector3d>(b->x + L::kAccRotation) =
+        lie::logSO3(b->frame.R0.transpose() * R.transpose());
+  }
+  refreshBase();
+}
+
 }  // namespace estimator_internal
 }  // namespace mvis

@@ -72,6 +72,8 @@ class ImuIntrinsicsBlocks {
   std::optional<Eigen::MatrixXd> latestCovariance(const double* x) const;
   // The current intrinsics (and standard deviations) into `out`.
   void write(Rig* out) const;
+  // The estimated blocks to `start`'s intrinsics (the priors and the frame, R0, unchanged).
+  void setValues(const Rig& start);
 
  private:
   std::vector<std::unique_ptr<ImuIntrinsicsBlock>> blocks_;

@@ -2,8 +2,40 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <cstdio>
+#include <sstream>
+
+#include "mvis/estimator/estimator.h"
 
 namespace mvis {
+
+std::string UnobservableCalibration::text() const {
+  std::ostringstream s;
+  s << sensor << ' ' << quantity;
+  if (!elements.empty()) {
+    s << " (";
+    for (std::size_t k = 0; k < elements.size(); ++k) s << (k ? ", " : "") << elements[k];
+    s << ')';
+    bool rate = false, force = false;
+    for (const auto& e : elements) {
+      (e.rfind("dw", 0) == 0 || e.rfind("theta_g", 0) == 0 ? rate : force) = true;
+    }
+    s << ": vary " << (rate ? "the rate of rotation about" : "") << (rate && force ? ", and " : "")
+      << (force ? "the specific force along" : "") << " each of " << sensor << "'s axes"
+      << (force ? " (tilt the rig, accelerate it)" : "");
+  } else if (directions_I.empty()) {
+    s << ": vary the rig's rate of rotation";  // only gyroscope time offsets are checked
+  } else if (directions_I.size() == 1) {
+    char d[64];
+    std::snprintf(d, sizeof d, "(%.2f, %.2f, %.2f)", directions_I[0].x(), directions_I[0].y(),
+                  directions_I[0].z());
+    s << (quantity == "rotation" ? " about " : " along ") << d << " in " << base
+      << ": rotate about another axis too";
+  } else {
+    s << ": rotate the rig about more than one axis";
+  }
+  return s.str();
+}
 
 WeakDirections weakDirections(const Eigen::MatrixXd& W, const Eigen::VectorXd& prior_std,
                               double ratio) {

@@ -12,34 +12,6 @@
 
 namespace mvis {
 
-std::string UnobservableCalibration::text() const {
-  std::ostringstream s;
-  s << sensor << ' ' << quantity;
-  if (!elements.empty()) {
-    s << " (";
-    for (std::size_t k = 0; k < elements.size(); ++k) s << (k ? ", " : "") << elements[k];
-    s << ')';
-    bool rate = false, force = false;
-    for (const auto& e : elements) {
-      (e.rfind("dw", 0) == 0 || e.rfind("theta_g", 0) == 0 ? rate : force) = true;
-    }
-    s << ": vary " << (rate ? "the rate of rotation about" : "") << (rate && force ? ", and " : "")
-      << (force ? "the specific force along" : "") << " each of " << sensor << "'s axes"
-      << (force ? " (tilt the rig, accelerate it)" : "");
-  } else if (directions_I.empty()) {
-    s << ": vary the rig's rate of rotation";  // only gyroscope time offsets are checked
-  } else if (directions_I.size() == 1) {
-    char d[64];
-    std::snprintf(d, sizeof d, "(%.2f, %.2f, %.2f)", directions_I[0].x(), directions_I[0].y(),
-                  directions_I[0].z());
-    s << (quantity == "rotation" ? " about " : " along ") << d << " in " << base
-      << ": rotate about another axis too";
-  } else {
-    s << ": rotate the rig about more than one axis";
-  }
-  return s.str();
-}
-
 namespace estimator_internal {
 namespace {
 
@@ -552,8 +524,9 @@ Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
   return B * C * B.transpose() + K;
 }
 
-Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
-                                                    Eigen::Matrix<double, 6, 6>* pose_cov) {
+Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
+                                                    const std::vector<double*>& poses,
+                                                    std::vector<Eigen::Matrix<double, 6, 6>>* out) {
   // The pose depends on what is held (a camera's translation along the only rotation axis
   // moves imu0's position in the board frame along it): with the held directions constant its
   // covariance would be as if they were known. Released for this computation, with a prior of
@@ -580,9 +553,13 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem, dou
         nullptr, block));
   }
   BlockCovariance cov;
-  const std::vector<std::pair<const double*, const double*>> pose_block = {{pose, pose}};
-  const bool ok = cov.compute(pose_block, problem);
-  if (ok) cov.GetCovarianceBlockInTangentSpace(pose, pose, pose_cov->data());
+  std::vector<std::pair<const double*, const double*>> pose_blocks;
+  for (double* pose : poses) pose_blocks.emplace_back(pose, pose);
+  const bool ok = cov.compute(pose_blocks, problem, false);
+  out->assign(poses.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  for (std::size_t k = 0; ok && k < poses.size(); ++k) {
+    cov.GetCovarianceBlockInTangentSpace(poses[k], poses[k], (*out)[k].data());
+  }
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
   for (auto& [const_block, hold] : holds_) {
     double* block = const_cast<double*>(const_block);

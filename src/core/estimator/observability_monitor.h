@@ -57,10 +57,10 @@ class ObservabilityMonitor {
   // empty if one was not in the computation.
   Eigen::MatrixXd jointTangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
                                          const std::vector<const double*>& blocks) const;
-  // The pose block's covariance with the held directions released at the uncertainty they kept
-  // (replaces *pose_cov): with them constant it would be as if they were known.
-  Status poseCovarianceWithHeld(ceres::Problem* problem, double* pose,
-                                Eigen::Matrix<double, 6, 6>* pose_cov);
+  // The pose blocks' covariances with the held directions released at the uncertainty they
+  // kept: with them constant it would be as if they were known.
+  Status poseCovarianceWithHeld(ceres::Problem* problem, const std::vector<double*>& poses,
+                                std::vector<Eigen::Matrix<double, 6, 6>>* out);
   bool holding() const { return !holds_.empty(); }
   // Forgets everything (the problem the holds were in is gone).
   void clear();

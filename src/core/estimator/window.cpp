@@ -31,15 +31,18 @@ void Window::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunct
   owner->residuals.push_back(std::move(r));
 }
 
-SolveSummary Window::solve(int iterations, double max_time_s) {
+SolveSummary Window::solve(int iterations, double max_time_s, ceres::IterationCallback* callback,
+                           bool* converged) {
   ceres::Solver::Options o;
   o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   o.max_num_iterations = iterations;
   o.max_solver_time_in_seconds = max_time_s;
   o.num_threads = options_.threads;
   o.logging_type = ceres::SILENT;
+  if (callback != nullptr) o.callbacks.push_back(callback);
   ceres::Solver::Summary s;
   ceres::Solve(o, problem_.get(), &s);
+  if (converged != nullptr) *converged = s.termination_type == ceres::CONVERGENCE;
   SolveSummary out = summary();
   out.iterations = static_cast<int>(s.iterations.size());
   out.solve_s = s.total_time_in_seconds;

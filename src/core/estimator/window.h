@@ -43,8 +43,10 @@ class Window {
   // inertial sensor whose readings it holds, if any).
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
                  std::vector<double*> blocks, int inertial = -1);
-  // Solves the problem: at most `iterations`, `max_time_s` seconds.
-  SolveSummary solve(int iterations, double max_time_s);
+  // Solves the problem: at most `iterations`, `max_time_s` seconds (`callback`, if given,
+  // called after every iteration; *converged set to whether Ceres's tests were met).
+  SolveSummary solve(int iterations, double max_time_s,
+                     ceres::IterationCallback* callback = nullptr, bool* converged = nullptr);
   // States, frames and corners in the window.
   SolveSummary summary() const;
   // Removes the oldest state: its residual blocks in their recorded order (Ceres's own removal

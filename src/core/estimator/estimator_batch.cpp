@@ -1,0 +1,286 @@
+// The estimator's covariances (the calibration's standard deviations and the newest pose's
+// online; in a batch every second of the trajectory's too) and the batch over a whole recording
+// (EstimatorOptions::batch): the starting calibration, the seed trajectory, the one solve and
+// its whitened residuals per sensor. Part of the facade (estimator_impl.h).
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "estimator_impl.h"
+#include "mvis/common/lie.h"
+
+namespace mvis {
+
+using estimator_internal::State;
+
+namespace {
+
+// A calibration is offered to be trusted only after the window has run on this much data: the
+// first seconds' covariances are taken far from the solution and are overconfident (restarted
+// from the calibration trusted after 2.5 s, a clean small-rig run failed the step test at 10
+// sigma a second later).
+constexpr double kTrustAfterS = 10.0;
+// Seed states further apart than this are not interpolated between (the online pass started
+// over there, or had a hole).
+constexpr TimeNs kMaxSeedGapNs = 200000000;  // 0.2 s
+// A batch's pose covariances: one state per this much of the trajectory.
+constexpr TimeNs kPoseCovarianceSpacingNs = kNsPerSecond;
+// Worst states named per sensor in a batch's residual summary.
+constexpr std::size_t kWorstStates = 5;
+
+class ProgressCallback : public ceres::IterationCallback {
+ public:
+  explicit ProgressCallback(const std::function<void(int, double)>& f) : f_(f) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (f_) f_(s.iteration, s.cost);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(int, double)>& f_;
+};
+
+}  // namespace
+
+Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov) {
+  solves_since_covariance = 0;
+  if (window.empty()) return Status::Error("no state yet");
+  ceres::Problem* problem = window.problem();
+  estimator_internal::BlockCovariance cov;
+  std::vector<std::pair<const double*, const double*>> blocks;
+  double* newest = window.newest().pose;
+  blocks.emplace_back(newest, newest);
+  calibration.covarianceBlocks(*problem, &blocks);
+  intrinsics.covarianceBlocks(*problem, &blocks);
+  if (!cov.compute(blocks, problem)) return Status::Error("covariance computation failed");
+  const estimator_internal::TangentCovariance tangent = [&](const double* block) {
+    return monitor.tangentCovariance(*problem, cov, block);
+  };
+  intrinsics.updateCovariance(*problem, tangent);
+  if (pose_cov != nullptr) {
+    cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+    if (monitor.holding()) {
+      std::vector<Eigen::Matrix<double, 6, 6>> with_held;
+      const Status s = monitor.poseCovarianceWithHeld(problem, {newest}, &with_held);
+      if (!s.ok()) return s;
+      *pose_cov = with_held[0];
+    }
+  }
+  calibration.updateStd(*problem, cov, tangent);
+  // A candidate for the trusted calibration (trusted once the next one is offered).
+  if (initialized && window_data_s >= kTrustAfterS && failure().empty()) {
+    auto offered = trustedBlocks(false);
+    std::vector<const double*> estimated;
+    for (const auto& b : offered) {
+      if (b.estimated) estimated.push_back(b.x);
+    }
+    const auto verdict =
+        trusted.offer(std::move(offered), monitor.jointTangentCovariance(*problem, cov, estimated),
+                      window.newestTime());
+    if (!verdict.failure.empty() && options.failure_step_sigma > 0.0) {
+      covariance_failure = "estimate failed: " + verdict.failure;
+    }
+    if (!verdict.inconsistent.empty() && options.failure_step_sigma > 0.0) {
+      ++counters.inconsistencies;
+      calibration_note = verdict.inconsistent;
+    }
+    // Said when the inflation first passes 4, 16, 64 (sigma 2x, 4x, 8x too small).
+    const double lambda = trusted.inflation();
+    if (lambda >= 4.0 * said_inflation) {
+      while (lambda >= 4.0 * said_inflation) said_inflation *= 4.0;
+      std::ostringstream note;
+      note << "the calibration moves " << std::setprecision(2) << std::sqrt(lambda)
+           << "x more between covariances than its standard deviations allow (median "
+              "chi-square of its steps over their expectation): the model does not fit this "
+              "data (e.g. held intrinsics that are off, an unmodelled effect, corners with "
+              "correlated errors); the reported sigmas are too small by about that much, and the "
+              "failure checks allow for it";
+      calibration_note = note.str();
+    }
+    if (trusted.fromCovariance()) frames.setGate(options.frame_gate_sigma);
+  }
+  return Status::Ok();
+}
+
+bool Estimator::Impl::seedAt(TimeNs t, State* s) const {
+  if (!options.batch || seed.empty()) return false;
+  const auto after =
+      std::lower_bound(seed.begin(), seed.end(), t,
+                       [](const EstimatorState& e, TimeNs stamp) { return e.stamp_ns < stamp; });
+  if (after == seed.end() || (after == seed.begin() && after->stamp_ns != t)) return false;
+  const EstimatorState& b = *after;
+  const EstimatorState& a = after == seed.begin() ? b : *(after - 1);
+  if (b.stamp_ns - a.stamp_ns > kMaxSeedGapNs) return false;
+  const double lambda = b.stamp_ns == a.stamp_ns
+                            ? 1.0
+                            : toSeconds(t - a.stamp_ns) / toSeconds(b.stamp_ns - a.stamp_ns);
+  se3ToPose(lie::interpolatePose(a.T_G_I, b.T_G_I, lambda), s->pose);
+  Eigen::Map<Eigen::Vector3d>(s->speed_bias) = a.v_G + lambda * (b.v_G - a.v_G);
+  Eigen::Map<Eigen::Vector3d>(s->speed_bias + 3) =
+      a.bias_gyro + lambda * (b.bias_gyro - a.bias_gyro);
+  Eigen::Map<Eigen::Vector3d>(s->speed_bias + 6) =
+      a.bias_accel + lambda * (b.bias_accel - a.bias_accel);
+  return true;
+}
+
+void Estimator::Impl::applyStart() {
+  if (!start) return;
+  calibration.setValues(*start);
+  intrinsics.setValues(*start);
+}
+
+std::vector<SensorResiduals> Estimator::Impl::residualSummary() {
+  const std::size_t cameras = rig.cameras.size(), inertial = rig.inertial.size();
+  std::vector<SensorResiduals> out(cameras + inertial);
+  // Per sensor and window state: chi-square and residuals.
+  std::vector<std::map<TimeNs, std::pair<double, long>>> by_state(out.size());
+  for (std::size_t c = 0; c < cameras; ++c) {
+    out[c].sensor = rig.cameras[c].name;
+    out[c].kind = "camera";
+  }
+  for (std::size_t i = 0; i < inertial; ++i) {
+    out[cameras + i].sensor = rig.inertial[i].name;
+    out[cameras + i].kind = i == 0                                             ? "base IMU"
+                            : rig.inertial[i].type == InertialType::kGyroscope ? "gyroscope"
+                                                                               : "auxiliary IMU";
+  }
+  ceres::Problem* problem = window.problem();
+  std::vector<double> residuals;
+  for (const auto& state : window.states()) {
+    for (const auto& r : state->residuals) {
+      std::size_t k = out.size();  // none: a prior
+      if (r.inertial >= 0) {
+        k = cameras + static_cast<std::size_t>(r.inertial);
+      } else {
+        for (std::size_t c = 0; c < cameras; ++c) {
+          if (std::find(r.blocks.begin(), r.blocks.end(), calibration.camera(c).extrinsic) !=
+              r.blocks.end()) {
+            k = c;
+          }
+        }
+      }
+      if (k == out.size()) continue;
+      residuals.assign(static_cast<std::size_t>(r.cost->num_residuals()), 0.0);
+      double cost = 0.0;
+      if (!problem->EvaluateResidualBlock(r.id, false, &cost, residuals.data(), nullptr)) continue;
+      double chi2 = 0.0;
+      for (double e : residuals) chi2 += e * e;
+      out[k].factors += 1;
+      out[k].residuals += static_cast<long>(residuals.size());
+      out[k].chi_square += chi2;
+      auto& at = by_state[k][state->t];
+      at.first += chi2;
+      at.second += static_cast<long>(residuals.size());
+    }
+  }
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    SensorResiduals& s = out[k];
+    if (s.residuals == 0) continue;
+    s.rms = std::sqrt(s.chi_square / static_cast<double>(s.residuals));
+    if (k < cameras) s.rms *= options.pixel_sigma_px;
+    for (const auto& [t, v] : by_state[k]) {
+      s.worst.emplace_back(t, v.first / static_cast<double>(v.second));
+    }
+    std::stable_sort(s.worst.begin(), s.worst.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    if (s.worst.size() > kWorstStates) s.worst.resize(kWorstStates);
+  }
+  out.erase(std::remove_if(out.begin(), out.end(),
+                           [](const SensorResiduals& s) { return s.residuals == 0; }),
+            out.end());
+  return out;
+}
+
+StatusOr<BatchSummary> Estimator::Impl::solveBatch(
+    int max_iterations, const std::function<void(int, double)>& progress) {
+  if (!options.batch) return Status::Error("solveBatch needs EstimatorOptions::batch");
+  if (!initialized || window.empty()) {
+    return Status::Error("the batch has no states to solve (" + status_text + ")");
+  }
+  ceres::Problem* problem = window.problem();
+  const auto start_time = Clock::now();
+  // What the recording's motion cannot observe is held, as online.
+  monitor.check(problem);
+  BatchSummary out;
+  problem->Evaluate(ceres::Problem::EvaluateOptions(), &out.initial_cost, nullptr, nullptr,
+                    nullptr);
+  ProgressCallback callback(progress);
+  out.solve = window.solve(max_iterations, 1e9, &callback, &out.converged);
+  intrinsics.refreshBase();
+  ++counters.solves;
+  if (!out.solve.usable) return Status::Error("the batch's solve failed (Ceres: not usable)");
+  out.residuals = residualSummary();
+  // The calibration's standard deviations (and the newest pose's covariance).
+  Eigen::Matrix<double, 6, 6> newest;
+  const Status cov = covariance(&newest);
+  if (!cov.ok()) return Status::Error("the batch's covariance failed: " + cov.message());
+  // Pose covariances about a second apart, from one factorization.
+  batch_pose_covariances.clear();
+  std::vector<double*> poses;
+  std::vector<TimeNs> times;
+  TimeNs next = std::numeric_limits<TimeNs>::min();
+  for (const auto& state : window.states()) {
+    if (state->t < next && state.get() != &window.newest()) continue;
+    poses.push_back(state->pose);
+    times.push_back(state->t);
+    next = state->t + kPoseCovarianceSpacingNs;
+  }
+  std::vector<Eigen::Matrix<double, 6, 6>> covariances;
+  const Status s = monitor.poseCovarianceWithHeld(problem, poses, &covariances);
+  if (!s.ok()) return Status::Error("the batch's pose covariances failed: " + s.message());
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    batch_pose_covariances.emplace_back(times[k], covariances[k]);
+  }
+  out.solve.total_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+  return out;
+}
+
+Status Estimator::setInitialCalibration(const Rig& start) {
+  const Rig& rig = impl_->rig;
+  if (!impl_->imu.empty() || impl_->initialized) {
+    return Status::Error("setInitialCalibration: the estimator has had data already");
+  }
+  bool same =
+      start.cameras.size() == rig.cameras.size() && start.inertial.size() == rig.inertial.size();
+  for (std::size_t c = 0; same && c < rig.cameras.size(); ++c) {
+    same = start.cameras[c].name == rig.cameras[c].name;
+  }
+  for (std::size_t i = 0; same && i < rig.inertial.size(); ++i) {
+    same = start.inertial[i].name == rig.inertial[i].name &&
+           start.inertial[i].type == rig.inertial[i].type &&
+           start.inertial[i].model == rig.inertial[i].model;
+  }
+  if (!same) {
+    return Status::Error(
+        "setInitialCalibration: the starting calibration's sensors (names, types, IMU models) "
+        "differ from the configured rig's");
+  }
+  impl_->start = start;
+  return Status::Ok();
+}
+
+void Estimator::setSeedTrajectory(std::vector<EstimatorState> seed) {
+  std::stable_sort(seed.begin(), seed.end(), [](const EstimatorState& a, const EstimatorState& b) {
+    return a.stamp_ns < b.stamp_ns;
+  });
+  impl_->seed = std::move(seed);
+}
+
+StatusOr<BatchSummary> Estimator::solveBatch(int max_iterations,
+                                             const std::function<void(int, double)>& progress) {
+  return impl_->solveBatch(max_iterations, progress);
+}
+
+std::vector<std::pair<TimeNs, Eigen::Matrix<double, 6, 6>>> Estimator::batchPoseCovariances()
+    const {
+  return impl_->batch_pose_covariances;
+}
+
+double Estimator::heldIntrinsicsStatistic(std::size_t sensor, int* dof) const {
+  *dof = 0;
+  return sensor < impl_->rig.inertial.size() ? impl_->inertial_fit.statistic(sensor, dof) : 0.0;
+}
+
+}  // namespace mvis
