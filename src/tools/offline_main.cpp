@@ -387,8 +387,8 @@ int main(int argc, char** argv) {
     }
   }
 
-  const mvis::Status saved =
-      mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
+  mvis::Status saved = mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
+  if (saved.ok() && r.batch) saved = mvis::writeBatchResiduals(output_dir, r.calibration, *r.batch);
   if (!saved.ok()) {
     std::fprintf(stderr, "mvis_offline: %s\n", saved.message().c_str());
     return 1;
@@ -457,7 +457,9 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
-      "calibration.csv, pose_covariance.csv)\n",
-      output_dir.c_str());
+      "calibration.csv, pose_covariance.csv%s)\n",
+      output_dir.c_str(),
+      batched ? ", corner_residuals.csv, inertial_residuals.csv; the online pass's in online/"
+              : "");
   return 0;
 }

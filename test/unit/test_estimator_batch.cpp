@@ -7,9 +7,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 
 #include "estimator_test_util.h"
+#include "mvis/estimator/result_directory.h"
 
 namespace mvis {
 namespace {
@@ -194,6 +197,26 @@ TEST(EstimatorBatch, SmoothsTheWholeRunWithHonestUncertainty) {
       EXPECT_NEAR(r.rms, 0.5, 0.03) << r.sensor;
     }
   }
+  // Every corner's residual in pixels, before the loss (few corners beyond 3 sigma here: the
+  // RMS stays the simulated 0.5 px), and every inertial factor, into the result directory.
+  long camera_residuals = 0, inertial_factors = 0;
+  for (const SensorResiduals& r : summary.residuals) {
+    (r.kind == "camera" ? camera_residuals : inertial_factors) +=
+        r.kind == "camera" ? r.residuals : r.factors;
+  }
+  ASSERT_EQ(2 * static_cast<long>(summary.corners.size()), camera_residuals);
+  EXPECT_EQ(static_cast<long>(summary.inertial.size()), inertial_factors);
+  double sum = 0.0;
+  for (const CornerResidual& c : summary.corners) sum += c.residual.squaredNorm();
+  EXPECT_NEAR(std::sqrt(sum / (2.0 * summary.corners.size())), 0.5, 0.02);
+  EXPECT_EQ(summary.pixel_sigma_px, 0.5);
+  const std::string dir = ::testing::TempDir() + "mvis_batch_residuals";
+  std::filesystem::create_directories(dir);
+  ASSERT_TRUE(writeBatchResiduals(dir, estimate, summary).ok());
+  std::ifstream file(dir + "/corner_residuals.csv");
+  long lines = 0;
+  for (std::string line; std::getline(file, line);) ++lines;
+  EXPECT_EQ(lines, static_cast<long>(summary.corners.size()) + 1);
 }
 
 TEST(EstimatorBatch, RefusesWhatItCannotDo) {

@@ -41,6 +41,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -315,11 +316,36 @@ struct SensorResiduals {
   std::vector<std::pair<TimeNs, double>> worst;
 };
 
+// One corner's residual at the end of a batch.
+struct CornerResidual {
+  TimeNs stamp_ns = 0;  // the window state its frame is attached to (base clock)
+  int camera = 0;
+  // The board point [m] (with a board; NaN without: then `corner` is the corner's index 0-3 in
+  // its tag's landmark block).
+  Eigen::Vector3d p_G = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  int corner = -1;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();        // detected [px]
+  Eigen::Vector2d residual = Eigen::Vector2d::Zero();  // projected - detected [px]
+};
+
+// One inertial factor's whitened chi-square at the end of a batch.
+struct InertialResidual {
+  TimeNs stamp_ns = 0;  // its first window state (base clock)
+  int sensor = 0;       // rig.inertial index
+  int residuals = 0;
+  double chi_square = 0.0;
+};
+
 struct BatchSummary {
   SolveSummary solve;
   bool converged = false;  // Ceres's convergence test met (not the iteration limit)
   double initial_cost = 0.0;
-  std::vector<SensorResiduals> residuals;  // cameras, base IMU, auxiliary sensors, priors
+  std::vector<SensorResiduals> residuals;  // cameras, base IMU, auxiliary sensors
+  // Every corner's residual (before the robust loss) and inertial factor's chi-square, and the
+  // pixel sigma the corners were weighed with (EstimatorOptions::pixel_sigma_px).
+  std::vector<CornerResidual> corners;
+  double pixel_sigma_px = 0.0;
+  std::vector<InertialResidual> inertial;
 };
 
 // Counters of what the estimator dropped, and why.

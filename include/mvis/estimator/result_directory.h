@@ -18,4 +18,13 @@ namespace mvis {
 Status writeResultDirectory(const std::string& dir, const Rig& calibration,
                             const std::vector<EstimatorState>& trajectory, const EstimateLog& log);
 
+// A batch's residuals into `dir` (scripts/evaluate reads them): corner_residuals.csv, one row
+// per corner: stamp (its window state, base clock [s]), camera (name), the board point
+// x, y, z [m] (nan without a board; then `corner` is its index 0-3 in its tag), the detected
+// u, v, the residual du, dv = projected - detected [px] before the robust loss, and the pixel
+// sigma the batch weighed it with;
+// inertial_residuals.csv, one row per inertial factor: stamp, sensor, residuals (its size),
+// chi_square (whitened).
+Status writeBatchResiduals(const std::string& dir, const Rig& rig, const BatchSummary& batch);
+
 }  // namespace mvis

@@ -39,6 +39,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,9 @@
 #include "mvis/rig/rig.h"
 
 namespace mvis {
+
+// Writes a stamp as seconds with nine decimals (exact, as the result directory's files have it).
+void writeStamp(std::FILE* file, TimeNs stamp);
 
 class EstimateLog {
  public:

@@ -10,6 +10,7 @@
 
 #include "estimator_impl.h"
 #include "mvis/common/lie.h"
+#include "mvis/factors/tag_reprojection_factor.h"
 
 namespace mvis {
 
@@ -131,7 +132,7 @@ void Estimator::Impl::applyStart() {
   intrinsics.setValues(*start);
 }
 
-std::vector<SensorResiduals> Estimator::Impl::residualSummary() {
+void Estimator::Impl::residualSummary(BatchSummary* summary) {
   const std::size_t cameras = rig.cameras.size(), inertial = rig.inertial.size();
   std::vector<SensorResiduals> out(cameras + inertial);
   // Per sensor and window state: chi-square and residuals.
@@ -173,6 +174,32 @@ std::vector<SensorResiduals> Estimator::Impl::residualSummary() {
       auto& at = by_state[k][state->t];
       at.first += chi2;
       at.second += static_cast<long>(residuals.size());
+      if (k >= cameras) {
+        summary->inertial.push_back(
+            {state->t, static_cast<int>(k - cameras), static_cast<int>(residuals.size()), chi2});
+        continue;
+      }
+      const auto* tag = dynamic_cast<const TagReprojectionFactor*>(r.cost);
+      if (tag == nullptr || 2 * tag->corners().size() != residuals.size()) continue;
+      const bool landmark = !rig.target;
+      // In a batch every frame's factor has the per-corner loss when it is configured.
+      const bool corner_loss =
+          options.robust_loss == RobustLoss::kCorner && options.huber_sigma > 0.0;
+      for (std::size_t i = 0; i < tag->corners().size(); ++i) {
+        const CornerObservation& o = tag->corners()[i];
+        CornerResidual c;
+        c.stamp_ns = state->t;
+        c.camera = static_cast<int>(k);
+        if (!landmark) c.p_G = o.p_G;
+        c.corner = o.landmark;
+        c.uv = o.uv;
+        Eigen::Vector2d e(residuals[2 * i], residuals[2 * i + 1]);
+        // The per-corner loss maps a whitened norm n > h to g = sqrt(2 h n - h^2): undone.
+        const double h = options.huber_sigma, g = e.norm();
+        if (corner_loss && g > h) e *= (g * g + h * h) / (2.0 * h) / g;
+        c.residual = options.pixel_sigma_px * e;
+        summary->corners.push_back(c);
+      }
     }
   }
   for (std::size_t k = 0; k < out.size(); ++k) {
@@ -190,7 +217,7 @@ std::vector<SensorResiduals> Estimator::Impl::residualSummary() {
   out.erase(std::remove_if(out.begin(), out.end(),
                            [](const SensorResiduals& s) { return s.residuals == 0; }),
             out.end());
-  return out;
+  summary->residuals = std::move(out);
 }
 
 StatusOr<BatchSummary> Estimator::Impl::solveBatch(
@@ -211,7 +238,8 @@ StatusOr<BatchSummary> Estimator::Impl::solveBatch(
   intrinsics.refreshBase();
   ++counters.solves;
   if (!out.solve.usable) return Status::Error("the batch's solve failed (Ceres: not usable)");
-  out.residuals = residualSummary();
+  residualSummary(&out);
+  out.pixel_sigma_px = options.pixel_sigma_px;
   // The calibration's standard deviations (and the newest pose's covariance).
   Eigen::Matrix<double, 6, 6> newest;
   const Status cov = covariance(&newest);

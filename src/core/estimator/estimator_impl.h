@@ -130,8 +130,9 @@ struct Estimator::Impl {
   void applyStart();
   StatusOr<BatchSummary> solveBatch(int max_iterations,
                                     const std::function<void(int, double)>& progress);
-  // The whitened residuals per sensor at the current estimate.
-  std::vector<SensorResiduals> residualSummary();
+  // The whitened residuals per sensor at the current estimate, with every corner's and
+  // inertial factor's into `out`.
+  void residualSummary(BatchSummary* out);
 
   // ---- initialization (estimator_startup.cpp) ----------------------------------------------
   // The camera's board pose with its current intrinsics (without a board: on its pose tag).

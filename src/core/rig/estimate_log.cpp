@@ -23,13 +23,6 @@ void thin(std::vector<Row>* rows, std::size_t max_rows) {
   rows->resize(kept);
 }
 
-void writeStamp(std::FILE* file, TimeNs stamp) {
-  const bool negative = stamp < 0;
-  const std::int64_t a = negative ? -stamp : stamp;
-  std::fprintf(file, "%s%" PRId64 ".%09" PRId64, negative ? "-" : "", a / kNsPerSecond,
-               a % kNsPerSecond);
-}
-
 void writeNumber(std::FILE* file, double v) {
   if (std::isnan(v)) {
     std::fputs(",nan", file);
@@ -39,6 +32,13 @@ void writeNumber(std::FILE* file, double v) {
 }
 
 }  // namespace
+
+void writeStamp(std::FILE* file, TimeNs stamp) {
+  const bool negative = stamp < 0;
+  const std::int64_t a = negative ? -stamp : stamp;
+  std::fprintf(file, "%s%" PRId64 ".%09" PRId64, negative ? "-" : "", a / kNsPerSecond,
+               a % kNsPerSecond);
+}
 
 int EstimateLog::sensorIndex(const std::string& name, const char* kind) {
   for (std::size_t i = 0; i < names_.size(); ++i) {
