@@ -1,7 +1,8 @@
 """Residual statistics and plots of an mvis result without a truth (scripts/evaluate RESULT_DIR):
 what a user with a real recording can check. Python 3 with Debian's numpy and matplotlib.
 
-Inputs (include/mvis/estimator/result_directory.h; written by mvis_offline --batch):
+Inputs (include/mvis/estimator/result_directory.h; the residuals are written by mvis_offline
+--batch, an online result has only the calibration over time):
   RESULT_DIR/corner_residuals.csv    every corner: stamp, camera, board point, detected u v,
                                      residual du dv [px] (projected - detected), pixel sigma
   RESULT_DIR/inertial_residuals.csv  every inertial factor: stamp, sensor, size, chi-square
@@ -205,6 +206,18 @@ def analyse(result_dir, out_dir):
     history_path = os.path.join(result_dir, "calibration.csv")
     if os.path.exists(history_path):
         history = ev.read_calibration_csv(history_path)
+        # Over time (an online result; a batch has one row): the estimate minus the final one,
+        # with its +-3 sigma.
+        final = {}
+        for name, h in history.items():
+            v = h["value"][-1]
+            intrinsics = np.concatenate([v[7:15], np.full(24, math.nan)])
+            final[name] = (ev.exp_so3(v[0:3]), v[3:6], v[6], intrinsics)
+        for name, e in ev.calibration_errors(history, final).items():
+            if len(e["t"]) > 1 and not np.all(np.isnan(e["error"][:, 0:7])):
+                e["error"] = -e["error"]  # estimate - final
+                ev.plot_errors([e], os.path.join(out_dir, name + "_over_time.png"),
+                               "%s (%s): estimate minus the final estimate" % (name, e["kind"]))
         lines += ["| sensor | quantity | value | sigma |", "| --- | --- | --- | --- |"]
         for name in sorted(history):
             h = history[name]

@@ -74,6 +74,23 @@ class CornerCorrelation(unittest.TestCase):
             self.assertAlmostEqual(float(rows[1].split(",")[1]), 0.5, delta=0.03)
             self.assertTrue(os.path.exists(os.path.join(out, "cam0_residuals.png")))
 
+    def test_an_online_result_gets_its_calibration_over_time(self):
+        # No residuals (an online result): the calibration's table and its plot over time.
+        with tempfile.TemporaryDirectory() as d:
+            keys = ["rx", "ry", "rz", "px", "py", "pz", "time_offset"]
+            with open(os.path.join(d, "calibration.csv"), "w") as f:
+                f.write("stamp,sensor,kind," + ",".join(keys) + "," +
+                        ",".join("std_" + k for k in keys) + "\n")
+                for k in range(5):
+                    value = [0.01 * k, 0.0, 0.0, 0.1, 0.0, 0.0, 0.001]
+                    f.write("%d.0,cam0,camera,%s,%s\n" % (
+                        100 + k, ",".join(map(str, value)), ",".join(["0.001"] * 7)))
+            out = os.path.join(d, "evaluation")
+            text = res.analyse(d, out)
+            self.assertIn("| cam0 | time offset [ms] | 1.0000 | 1.0000 |", text)
+            self.assertTrue(os.path.exists(os.path.join(out, "cam0_over_time.png")))
+            self.assertFalse(os.path.exists(os.path.join(out, "inflation.csv")))
+
 
 if __name__ == "__main__":
     unittest.main()
