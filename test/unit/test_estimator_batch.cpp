@@ -134,8 +134,8 @@ TEST(EstimatorBatch, SmoothsTheWholeRunWithHonestUncertainty) {
 
   // Every element inside 3 sigma; all 25 together within the chi-square's 99.9% (52.6). On
   // noisy data which of batch and online is nearer the truth is itself noise (seed 3: whitened
-  // squared errors 21.9 and 14.8; seed 1 of scripts/monte_carlo: the batch nearer on 11 of 14
-  // quantities): the test without noise above compares them.
+  // squared errors 21.9 and 14.8; scripts/monte_carlo's seed 1, 20 s: the batch nearer on 10 of
+  // 14 quantities): the test without noise above compares them.
   for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
     const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
     std::printf("%s: %.4f deg, %.3f mm, %.4f ms\n", run.truth.cameras[c].name.c_str(),

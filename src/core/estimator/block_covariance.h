@@ -28,7 +28,7 @@ class BlockCovariance {
   // Computes the diagonal blocks of the blocks listed (pairs (a, a); others are refused). False
   // if a listed block is unknown or constant, or the information is not positive definite.
   // Without `joint_wanted` only the diagonal blocks are kept (joint() refuses): for many blocks
-  // (a batch's poses) their columns of the inverse would take rows x 6 numbers each.
+  // (a batch's poses) the columns joint() needs would take rows x 6 numbers each.
   bool compute(const std::vector<std::pair<const double*, const double*>>& blocks,
                ceres::Problem* problem, bool joint_wanted = true);
 
@@ -42,9 +42,8 @@ class BlockCovariance {
 
  private:
   std::unordered_map<const double*, Eigen::MatrixXd> blocks_;
-  // Per computed block its columns of the inverse (all rows) and its offset among the rows.
+  // Per computed block its columns of W (H^-1 = W^T W, block_covariance.cpp), for joint().
   std::unordered_map<const double*, Eigen::MatrixXd> columns_;
-  std::unordered_map<const double*, int> offset_;
   std::unordered_map<const double*, bool> euclidean_;
 };
 
