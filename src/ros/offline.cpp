@@ -9,7 +9,6 @@
 
 #include <cctype>
 #include <chrono>
-#include <limits>
 #include <map>
 #include <set>
 
@@ -264,7 +263,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   result.calibration = estimator->calibration();
   result.trajectory = estimator->trajectory();
   if (batch) {
-    // One solution: its calibration once, and every state with its covariance where computed.
+    // One solution: its calibration once, and the states whose covariance it computed.
     result.log = EstimateLog();
     if (!result.trajectory.empty()) {
       result.log.addCalibration(result.trajectory.back().stamp_ns, result.calibration);
@@ -273,10 +272,9 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     std::size_t k = 0;
     for (const EstimatorState& s : result.trajectory) {
       while (k < covariances.size() && covariances[k].first < s.stamp_ns) ++k;
-      Eigen::Matrix<double, 6, 6> cov;
-      cov.setConstant(std::numeric_limits<double>::quiet_NaN());
-      if (k < covariances.size() && covariances[k].first == s.stamp_ns) cov = covariances[k].second;
-      result.log.addPose(s.stamp_ns, s.T_G_I, cov);
+      if (k < covariances.size() && covariances[k].first == s.stamp_ns) {
+        result.log.addPose(s.stamp_ns, s.T_G_I, covariances[k].second);
+      }
     }
   }
   result.counters = estimator->counters();

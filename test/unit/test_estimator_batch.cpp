@@ -13,6 +13,7 @@
 
 #include "estimator_test_util.h"
 #include "mvis/estimator/result_directory.h"
+#include "sim_test_util.h"
 
 namespace mvis {
 namespace {
@@ -217,6 +218,53 @@ TEST(EstimatorBatch, SmoothsTheWholeRunWithHonestUncertainty) {
   long lines = 0;
   for (std::string line; std::getline(file, line);) ++lines;
   EXPECT_EQ(lines, static_cast<long>(summary.corners.size()) + 1);
+}
+
+// The starting calibration replaces the configured values (not the priors, made before it):
+// after the first batch, which holds the IMU intrinsics and the auxiliary sensors' calibration,
+// those are the start's exactly, in both IMU models and with a configured accelerometer rotation
+// (the intrinsics block is relative to it).
+TEST(EstimatorBatch, StartsFromTheGivenCalibration) {
+  const Eigen::Matrix3d R_configured = lie::expSO3(Eigen::Vector3d(0.01, 0.02, -0.01));
+  const SimRun run = simulate("sim_small_rig", 5.0, 4, MotionKind::kHandheld, false, [&](Rig* r) {
+    r->inertial[0].model = ImuModel::kRpng;
+    r->inertial[0].intrinsics.R_IMUtoACC = R_configured;
+    r->inertial[1].model = ImuModel::kKalibr;
+    r->inertial[1].intrinsics.R_IMUtoGYRO = R_configured.transpose();
+  });
+  Rig start = run.guess;
+  start.inertial[0].intrinsics = tableFourIntrinsics();
+  ImuIntrinsics& kalibr = start.inertial[1].intrinsics;
+  kalibr = tableFourIntrinsics();
+  kalibr.Tw.transposeInPlace();
+  kalibr.Ta.transposeInPlace();
+  kalibr.R_IMUtoGYRO = kalibr.R_IMUtoACC;
+  kalibr.R_IMUtoACC.setIdentity();
+  start.inertial[1].T_i_b.p += Eigen::Vector3d(0.003, -0.002, 0.001);
+  start.inertial[1].time_offset += 0.004;
+
+  EstimatorOptions options = deterministic();
+  options.batch = true;
+  options.estimate_imu_intrinsics = true;
+  options.estimate_gravity_sensitivity = true;
+  auto created = Estimator::create(run.guess, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  Estimator& batch = *created.value();
+  ASSERT_TRUE(batch.setInitialCalibration(start).ok());
+  feed(run, &batch);
+  ASSERT_TRUE(batch.initialized()) << batch.status();
+  const Rig now = batch.calibration();
+  for (std::size_t i = 0; i < 2; ++i) {
+    const ImuIntrinsics& a = now.inertial[i].intrinsics;
+    const ImuIntrinsics& b = start.inertial[i].intrinsics;
+    EXPECT_LT((a.Tw - b.Tw).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((a.Ta - b.Ta).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((a.Tg - b.Tg).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((a.R_IMUtoACC - b.R_IMUtoACC).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((a.R_IMUtoGYRO - b.R_IMUtoGYRO).cwiseAbs().maxCoeff(), 1e-12) << i;
+  }
+  EXPECT_LT((now.inertial[1].T_i_b.p - start.inertial[1].T_i_b.p).norm(), 1e-12);
+  EXPECT_DOUBLE_EQ(now.inertial[1].time_offset, start.inertial[1].time_offset);
 }
 
 TEST(EstimatorBatch, RefusesWhatItCannotDo) {

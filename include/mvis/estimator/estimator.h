@@ -303,11 +303,12 @@ struct EstimatorUpdate {
 
 // One sensor's whitened residuals at the end of a batch (Estimator::solveBatch).
 struct SensorResiduals {
-  std::string sensor;  // its name, or "priors" (the calibration's and the first state's)
-  std::string kind;    // "camera", "base IMU", "auxiliary IMU", "gyroscope", "prior"
+  std::string sensor;  // its name
+  std::string kind;    // "camera", "base IMU", "auxiliary IMU", "gyroscope"
   long factors = 0;    // residual blocks
   long residuals = 0;  // scalar residuals
-  // Sum of squared whitened residuals (no robust loss): about `residuals` (less the parameters'
+  // Sum of squared whitened residuals as the factors have them (a camera factor's per-corner
+  // loss, which is inside it, included; no other loss): about `residuals` (less the parameters'
   // share) when the noise model fits.
   double chi_square = 0.0;
   double rms = 0.0;  // [px] for a camera (whitened RMS x pixel_sigma_px), else whitened
