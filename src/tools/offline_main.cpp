@@ -48,7 +48,8 @@ int usage(const char* message) {
                "                    [--imu-step S]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
                "                    [--failure-step-sigma S] [--frame-gate-sigma S]\n"
-               "                    [--batch [--batch-iterations N]]\n"
+               "                    [--batch [--batch-iterations N]\n"
+               "                             [--batch-covariance clustered|model]]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
                "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
                "  --imu-chain F, --cam-chain F, --target F  other names for those files\n"
@@ -99,7 +100,13 @@ int usage(const char* message) {
                "                   and the calibration at once from its result (the same\n"
                "                   factors and priors), with the batch's covariance; the\n"
                "                   online result goes to OUTPUT/online\n"
-               "  --batch-iterations N  at most N iterations of the batch (default 100)\n",
+               "  --batch-iterations N  at most N iterations of the batch (default 100)\n"
+               "  --batch-covariance  the batch's calibration sigmas: clustered (default;\n"
+               "                   the model's, plus what the residuals show beyond it, with\n"
+               "                   errors correlated along a corner's track, over a second of\n"
+               "                   frames or of inertial factors counted as they are) or\n"
+               "                   model (the inverse information: every residual as its\n"
+               "                   noise model says)\n",
                message);
   return 2;
 }
@@ -141,6 +148,13 @@ void printBatch(const mvis::OfflineResult& batch, const mvis::OfflineResult& onl
     for (const auto& [t, chi2] : s.worst) std::printf(" %.2f: %.2f", mvis::toSeconds(t - t0), chi2);
     std::printf("\n");
   }
+  if (b.sigma_ratio_max != 1.0 || b.sigma_ratio_min != 1.0) {
+    std::printf(
+        "batch: the calibration's sigmas, with the errors the residuals show beyond their noise "
+        "model (clustered per corner track, second of frames, second of inertial factors), are "
+        "%.2f-%.2fx the inverse information's\n",
+        b.sigma_ratio_min, b.sigma_ratio_max);
+  }
 }
 
 }  // namespace
@@ -168,6 +182,7 @@ int main(int argc, char** argv) {
   int solve_every = mvis::EstimatorOptions{}.solve_every;
   bool batch = false;
   int batch_iterations = mvis::OfflineOptions{}.batch_iterations;
+  mvis::BatchCovariance batch_covariance = mvis::EstimatorOptions{}.batch_covariance;
   for (int i = 1; i < argc; ++i) {
     const auto value = [&](std::string* out) {
       if (i + 1 >= argc) return false;
@@ -260,6 +275,13 @@ int main(int argc, char** argv) {
       (arg == "--failure-step-sigma" ? failure_step_sigma : frame_gate_sigma) = s;
     } else if (arg == "--batch") {
       batch = true;
+    } else if (arg == "--batch-covariance") {
+      std::string v;
+      if (!value(&v) || (v != "clustered" && v != "model")) {
+        return usage("--batch-covariance takes clustered or model");
+      }
+      batch_covariance =
+          v == "model" ? mvis::BatchCovariance::kModel : mvis::BatchCovariance::kClustered;
     } else if (arg == "--batch-iterations") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) {
@@ -344,6 +366,7 @@ int main(int argc, char** argv) {
     // The same factors and priors over every state, from the online result.
     mvis::OfflineOptions b = options;
     b.estimator.batch = true;
+    b.estimator.batch_covariance = batch_covariance;
     b.estimator.observability_horizon_s = 1e9;  // the degeneracy check asks the whole recording
     b.estimator.failure_step_sigma = 0.0;       // nothing to start over to
     b.batch_start = &online.value().calibration;
@@ -388,7 +411,10 @@ int main(int argc, char** argv) {
   }
 
   mvis::Status saved = mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
-  if (saved.ok() && r.batch) saved = mvis::writeBatchResiduals(output_dir, r.calibration, *r.batch);
+  if (saved.ok() && r.batch) {
+    saved = mvis::writeBatchResiduals(output_dir, r.calibration, *r.batch,
+                                      r.trajectory.empty() ? 0 : r.trajectory.back().stamp_ns);
+  }
   if (!saved.ok()) {
     std::fprintf(stderr, "mvis_offline: %s\n", saved.message().c_str());
     return 1;
@@ -459,7 +485,8 @@ int main(int argc, char** argv) {
       "\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
       "calibration.csv, pose_covariance.csv%s)\n",
       output_dir.c_str(),
-      batched ? ", corner_residuals.csv, inertial_residuals.csv; the online pass's in online/"
+      batched ? ", corner_residuals.csv, inertial_residuals.csv, calibration_model.csv with "
+                "--batch-covariance clustered; the online pass's in online/"
               : "");
   return 0;
 }

@@ -1,5 +1,5 @@
-"""scripts/mvis_residuals.py (scripts/evaluate without a truth) and scripts/compare_calibrations on
-synthetic corner residuals with known correlation."""
+"""scripts/mvis_residuals.py (scripts/evaluate without a truth) on synthetic corner residuals
+with known correlation, and scripts/compare_calibrations' inflation."""
 import os
 import sys
 import tempfile
@@ -90,6 +90,57 @@ class CornerCorrelation(unittest.TestCase):
             self.assertIn("| cam0 | time offset [ms] | 1.0000 | 1.0000 |", text)
             self.assertTrue(os.path.exists(os.path.join(out, "cam0_over_time.png")))
             self.assertFalse(os.path.exists(os.path.join(out, "inflation.csv")))
+
+
+
+def write_calibration(path, value, std):
+    """A calibration.csv with one camera row (rotation, translation, time offset)."""
+    keys = ["rx", "ry", "rz", "px", "py", "pz", "time_offset"]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        f.write("stamp,sensor,kind," + ",".join(keys) + "," +
+                ",".join("std_" + k for k in keys) + "\n")
+        f.write("100.0,cam0,camera,%s,%s\n" % (",".join(map(str, value)),
+                                               ",".join(map(str, std))))
+
+
+class CompareCalibrations(unittest.TestCase):
+    def setUp(self):
+        import importlib.machinery
+        import importlib.util
+        loader = importlib.machinery.SourceFileLoader(
+            "compare_calibrations", os.path.join(SCRIPTS, "compare_calibrations"))
+        spec = importlib.util.spec_from_loader(loader.name, loader)
+        self.compare = importlib.util.module_from_spec(spec)
+        loader.exec_module(self.compare)
+
+    def test_auto_inflates_the_online_pass_by_its_batch_ratio(self):
+        # A batch with the clustered covariance (sigmas 3x the model's for rotations, 1x else)
+        # and its online pass: the batch is taken as it is, the online pass's sigmas get the
+        # batch's ratio per element; a directory without either keeps its own.
+        with tempfile.TemporaryDirectory() as d:
+            value = [0.01, 0.0, 0.0, 0.1, 0.0, 0.0, 0.001]
+            write_calibration(os.path.join(d, "batch", "calibration.csv"), value,
+                              [0.003] * 3 + [0.001] * 4)
+            write_calibration(os.path.join(d, "batch", "calibration_model.csv"), value,
+                              [0.001] * 7)
+            write_calibration(os.path.join(d, "batch", "online", "calibration.csv"), value,
+                              [0.001] * 7)
+            write_calibration(os.path.join(d, "other", "calibration.csv"), value, [0.001] * 7)
+            batch = self.compare.inflation(os.path.join(d, "batch"), None)("cam0")
+            online = self.compare.inflation(os.path.join(d, "batch", "online"), None)("cam0")
+            other = self.compare.inflation(os.path.join(d, "other"), None)("cam0")
+            self.assertEqual(batch, 1.0)
+            self.assertEqual(other, 1.0)
+            np.testing.assert_allclose(online[0:7], [3.0] * 3 + [1.0] * 4)
+            # A rotation 0.012 rad off: 3.79 combined sigmas without the inflation, 2.83 with it.
+            shifted = [0.022] + value[1:]
+            write_calibration(os.path.join(d, "shifted", "calibration.csv"), shifted,
+                              [0.003] * 3 + [0.001] * 4)
+            rows = self.compare.compare(self.compare.load(os.path.join(d, "batch", "online")),
+                                        self.compare.load(os.path.join(d, "shifted")),
+                                        lambda name: online, lambda name: 1.0)
+            self.assertAlmostEqual(rows[0][3], 0.012 / np.hypot(0.003, 0.003), places=3)
 
 
 if __name__ == "__main__":

@@ -44,6 +44,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -64,6 +65,9 @@ enum class FrameInterpolation {
   kImu,     // IMU-propagated from the state before the frame (default)
   kReport,  // the report's Appendix A: kinematic for cam0, pose-based for the others
 };
+
+// A batch's calibration covariance (EstimatorOptions::batch_covariance).
+enum class BatchCovariance { kModel, kClustered };
 
 // Where the camera factors' robust loss (EstimatorOptions::huber_sigma) acts.
 enum class RobustLoss {
@@ -224,6 +228,15 @@ struct EstimatorOptions {
   // the calibration at once. The degeneracy check looks at observability_horizon_s of motion as
   // online: set it to the recording's length to ask the whole recording.
   bool batch = false;
+  // A batch's calibration covariance (src/core/estimator/block_covariance.h). kClustered: the
+  // inverse information plus what the residuals show beyond their noise model, per group (the
+  // corners, each inertial sensor), with errors correlated within a cluster counted as they are:
+  // a corner's track over the recording or a second of frames (real corners: a corner's
+  // residual stays correlated over hundreds of frames), a second of an inertial sensor's
+  // factors. Never below kModel, the inverse information; on residuals that fit their model
+  // within a few percent of it. Online the marginalized prior has no residuals: always the
+  // model's. The pose covariances are the model's either way.
+  BatchCovariance batch_covariance = BatchCovariance::kClustered;
 };
 
 // Checked at creation: a clear message naming the option.
@@ -346,6 +359,12 @@ struct BatchSummary {
   // pixel sigma the corners were weighed with (EstimatorOptions::pixel_sigma_px).
   std::vector<CornerResidual> corners;
   double pixel_sigma_px = 0.0;
+  // The calibration's standard deviations over the inverse information's, smallest and largest
+  // over every estimated element (1 with BatchCovariance::kModel).
+  double sigma_ratio_min = 1.0, sigma_ratio_max = 1.0;
+  // With BatchCovariance::kClustered: the calibration (as Estimator::calibration()) with the
+  // model's standard deviations, the inverse information's.
+  std::optional<Rig> model_calibration;
   std::vector<InertialResidual> inertial;
 };
 

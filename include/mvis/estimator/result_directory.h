@@ -24,7 +24,9 @@ Status writeResultDirectory(const std::string& dir, const Rig& calibration,
 // u, v, the residual du, dv = projected - detected [px] before the robust loss, and the pixel
 // sigma the batch weighed it with;
 // inertial_residuals.csv, one row per inertial factor: stamp, sensor, residuals (its size),
-// chi_square (whitened).
-Status writeBatchResiduals(const std::string& dir, const Rig& rig, const BatchSummary& batch);
+// chi_square (whitened); with the clustered covariance calibration_model.csv, calibration.csv's
+// row with the model's standard deviations (the inverse information's) at `stamp_ns`.
+Status writeBatchResiduals(const std::string& dir, const Rig& rig, const BatchSummary& batch,
+                           TimeNs stamp_ns);
 
 }  // namespace mvis

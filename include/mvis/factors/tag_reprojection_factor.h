@@ -167,6 +167,8 @@ class TagReprojectionFactor final : public ceres::CostFunction {
                 double** jacobians) const override;
 
   const std::vector<CornerObservation>& corners() const { return corners_; }
+  // The index of the landmark block among the parameters, -1 without (useLandmarkBlock).
+  int landmarkBlock() const { return landmark_block_; }
 
  private:
   TagReprojectionFactor(Interpolation interpolation, DistortionModel model,

@@ -65,6 +65,8 @@ class EstimateLog {
 
   // Writes calibration.csv and pose_covariance.csv into `dir` (which must exist).
   Status write(const std::string& dir) const;
+  // Writes the calibration rows alone to `path` (calibration.csv's columns).
+  Status writeCalibration(const std::string& path) const;
 
   std::size_t calibrationRows() const { return calibration_.size(); }
 

@@ -101,8 +101,20 @@ struct Estimator::Impl {
   // current intrinsics estimate (as they are when the intrinsics are not estimated).
   std::shared_ptr<ImuPreintegration> corrected(const State& from, TimeNs to) const;
   void publish(const SolveSummary& summary, Clock::time_point start);
-  // Calibration standard deviations, and the newest pose's covariance.
-  Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov);
+  // A batch's clustered covariance (block_covariance.h): its rows in, and besides the
+  // standard deviations out: their smallest and largest ratio to the model's over the
+  // calibration's estimated elements, and the calibration with the model's.
+  struct Clustered {
+    estimator_internal::RowClusters clusters;
+    double ratio_min = 1.0, ratio_max = 1.0;
+    Rig model;
+  };
+  // Calibration standard deviations, and the newest pose's covariance; with `clustered` the
+  // clustered ones.
+  Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Clustered* clustered = nullptr);
+  // The batch's corner and inertial rows, in groups (the corners, each inertial sensor) and
+  // clustered two ways (estimator_batch.cpp, block_covariance.h).
+  estimator_internal::RowClusters rowClusters() const;
   void trimBuffers();
   // A new problem: everything in the old one (prior, landmarks) is forgotten.
   void newProblem();

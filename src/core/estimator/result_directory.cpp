@@ -22,7 +22,14 @@ Status writeResultDirectory(const std::string& dir, const Rig& calibration,
   return log.write(dir);
 }
 
-Status writeBatchResiduals(const std::string& dir, const Rig& rig, const BatchSummary& batch) {
+Status writeBatchResiduals(const std::string& dir, const Rig& rig, const BatchSummary& batch,
+                           TimeNs stamp_ns) {
+  if (batch.model_calibration) {
+    EstimateLog model;
+    model.addCalibration(stamp_ns, *batch.model_calibration);
+    const Status s = model.writeCalibration(dir + "/calibration_model.csv");
+    if (!s.ok()) return s;
+  }
   const std::string corners_path = dir + "/corner_residuals.csv";
   std::FILE* f = std::fopen(corners_path.c_str(), "w");
   if (f == nullptr) return Status::Error(corners_path + ": cannot write");

@@ -118,7 +118,32 @@ void EstimateLog::addPose(TimeNs stamp_ns, const SE3& T_G_I,
 }
 
 Status EstimateLog::write(const std::string& dir) const {
-  const std::string calibration_path = dir + "/calibration.csv";
+  const Status calibration = writeCalibration(dir + "/calibration.csv");
+  if (!calibration.ok()) return calibration;
+  const std::string pose_path = dir + "/pose_covariance.csv";
+  std::FILE* file = std::fopen(pose_path.c_str(), "w");
+  if (!file) return Status::Error(pose_path + ": cannot write");
+  std::fputs("stamp,tx,ty,tz,qx,qy,qz,qw", file);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) std::fprintf(file, ",c%d%d", r, c);
+  }
+  std::fputc('\n', file);
+  for (const PoseRow& row : poses_) {
+    writeStamp(file, row.stamp_ns);
+    const SE3& T = row.T_G_I;
+    for (double v : {T.p.x(), T.p.y(), T.p.z(), T.q.x(), T.q.y(), T.q.z(), T.q.w()}) {
+      writeNumber(file, v);
+    }
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) writeNumber(file, row.covariance(r, c));
+    }
+    std::fputc('\n', file);
+  }
+  if (std::fclose(file) != 0) return Status::Error(pose_path + ": cannot write");
+  return Status::Ok();
+}
+
+Status EstimateLog::writeCalibration(const std::string& calibration_path) const {
   std::FILE* file = std::fopen(calibration_path.c_str(), "w");
   if (!file) return Status::Error(calibration_path + ": cannot write");
   std::fputs(
@@ -147,27 +172,6 @@ Status EstimateLog::write(const std::string& dir) const {
     std::fputc('\n', file);
   }
   if (std::fclose(file) != 0) return Status::Error(calibration_path + ": cannot write");
-
-  const std::string pose_path = dir + "/pose_covariance.csv";
-  file = std::fopen(pose_path.c_str(), "w");
-  if (!file) return Status::Error(pose_path + ": cannot write");
-  std::fputs("stamp,tx,ty,tz,qx,qy,qz,qw", file);
-  for (int r = 0; r < 6; ++r) {
-    for (int c = 0; c < 6; ++c) std::fprintf(file, ",c%d%d", r, c);
-  }
-  std::fputc('\n', file);
-  for (const PoseRow& row : poses_) {
-    writeStamp(file, row.stamp_ns);
-    const SE3& T = row.T_G_I;
-    for (double v : {T.p.x(), T.p.y(), T.p.z(), T.q.x(), T.q.y(), T.q.z(), T.q.w()}) {
-      writeNumber(file, v);
-    }
-    for (int r = 0; r < 6; ++r) {
-      for (int c = 0; c < 6; ++c) writeNumber(file, row.covariance(r, c));
-    }
-    std::fputc('\n', file);
-  }
-  if (std::fclose(file) != 0) return Status::Error(pose_path + ": cannot write");
   return Status::Ok();
 }
 
