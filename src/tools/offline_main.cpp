@@ -1,6 +1,7 @@
 // mvis_offline --config DIR --bag FILE --output DIR [--imu-chain F] [--cam-chain F] [--target F]
 //              [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--huber S] [--robust-loss frame|corner] [--window N]
+//              [--threads N]
 //              [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
@@ -38,7 +39,7 @@ int usage(const char* message) {
                "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
-               "                    [--window N]\n"
+               "                    [--window N] [--threads N]\n"
                "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--imu-observability-ratio R]\n"
@@ -65,6 +66,8 @@ int usage(const char* message) {
                "  --robust-loss L  where the Huber loss acts: on each corner (corner, default)\n"
                "                   or on a frame's corners together (frame)\n"
                "  --window N       states in the sliding window (default 4)\n"
+               "  --threads N      Ceres's threads for the solves (default 1; with more the\n"
+               "                   last digits of the result may vary from run to run)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
                "  --solve-every N  solve after every n-th cam0 frame (default 3)\n"
                "  --max-solve-time S  time budget per solve [s] as the nodelet has it (0.05);\n"
@@ -178,6 +181,7 @@ int main(int argc, char** argv) {
   double imu_step = mvis::EstimatorOptions{}.imu_integration_step_s;
   double max_solve_time = 1e3;
   int window = mvis::EstimatorOptions{}.window_size;
+  int threads = mvis::EstimatorOptions{}.threads;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
   bool batch = false;
@@ -224,6 +228,10 @@ int main(int argc, char** argv) {
         return usage("--max-solve-time takes seconds > 0");
       }
       max_solve_time = std::atof(v.c_str());
+    } else if (arg == "--threads") {
+      std::string v;
+      if (!value(&v) || std::atoi(v.c_str()) < 1) return usage("--threads takes a count >= 1");
+      threads = std::atoi(v.c_str());
     } else if (arg == "--window") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 3) return usage("--window takes a state count >= 3");
@@ -326,6 +334,7 @@ int main(int argc, char** argv) {
   options.estimator.propagation_noise = propagation_noise;
   options.estimator.imu_integration_step_s = imu_step;
   options.estimator.window_size = window;
+  options.estimator.threads = threads;
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;
   // Offline there is no deadline: without the per-solve time budget, results do not depend on
