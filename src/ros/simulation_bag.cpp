@@ -86,12 +86,12 @@ class BagSink : public SimulationSink {
     msg.header.stamp = ros_conversions::toRosTime(sample.stamp_ns);
     msg.header.frame_id = rig_.inertial[sensor].name;
     msg.orientation_covariance[0] = -1.0;  // REP-145: no orientation estimate
-    msg.angular_velocity.x = sample.gyro.x();
-    msg.angular_velocity.y = sample.gyro.y();
-    msg.angular_velocity.z = sample.gyro.z();
-    msg.linear_acceleration.x = sample.accel.x();
-    msg.linear_acceleration.y = sample.accel.y();
-    msg.linear_acceleration.z = sample.accel.z();
+    for (auto [to, from] : {std::make_pair(&msg.angular_velocity, &sample.gyro),
+                            std::make_pair(&msg.linear_acceleration, &sample.accel)}) {
+      to->x = from->x();
+      to->y = from->y();
+      to->z = from->z();
+    }
     bag_->write(rig_.inertial[sensor].rostopic, msg.header.stamp, msg);
     ++summary_->imu_messages;
   }
