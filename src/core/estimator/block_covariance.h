@@ -20,14 +20,14 @@
 //   M_g = G_A/(G_A-1) sum_a s_a s_a^T + G_B/(G_B-1) sum_b s_b s_b^T - sum_ab s_ab s_ab^T,
 //   s = sum of J_i^T r_i over the group's rows in a cluster,
 // the two-way clustering of Cameron, Gelbach & Miller (2011): errors correlated within a cluster
-// of either way (a corner's track over the recording or an inertial sensor's second of factors;
-// a window state's frames or factors) count as they are, clusters of different ids in both ways
-// are taken as independent; G_A, G_B the group's clusters per way. The model is a floor: a
+// of either way (a corner's track over the recording or a second of an inertial sensor's
+// factors; a second of frames or one inertial factor) count as they are, clusters of different
+// ids in both ways are taken as independent; G_A, G_B the group's clusters per way. The model is a floor: a
 // fit's residuals are smaller than its errors (by the leverage the states take, large for
 // inertial factors whose 15 rows per state meet 15 state parameters), and a noise model the
 // residuals undercut (real corners' RMS 0.2-0.3 px against the configured 1 px) is the user's
 // statement of the sensor. So each group adds only what its M_g exceeds its model information:
-//   V = C + sum_g K (M_g - H_g)^+ K^T,   H_g = sum over the group's rows of J_i^T J_i,
+//   V = C + sum_g (K M_g K^T - K H_g K^T)^+,   H_g = sum over the group's rows of J_i^T J_i,
 // (.)^+ dropping negative eigenvalues, in the listed blocks' space: only their rows K of H^-1
 // are needed, K^T = H^-1 E = P^T L^-T D^-1/2 (W E) (k backward solves), and K J_i^T =
 // (J_i K^T)^T is formed per residual block. V >= C always; on residuals that fit their model
@@ -52,8 +52,8 @@ namespace mvis::estimator_internal {
 
 // Rows whose errors the covariance takes from their residuals (see above): per residual block
 // (its ceres::ResidualBlockId) its group (e.g. the corners, each inertial sensor: each group's
-// excess over its model is taken separately) and per row its cluster id in each of two ways (>= 0).
-// Consecutive rows with the same pair form one observation.
+// excess over its model is taken separately) and per row its cluster id in each of two ways
+// (>= 0). Consecutive rows with the same pair form one observation.
 struct RowClusters {
   struct Block {
     int group = 0;
@@ -88,7 +88,7 @@ class BlockCovariance {
   void showModel(bool model) { show_model_ = model; }
 
  private:
-  // sum_g (M_g - K H_g K^T)^+ (above) from the residuals `r` and Jacobian `crs` of the blocks
+  // sum_g (K M_g K^T - K H_g K^T)^+ (above) from the residuals `r` and Jacobian `crs` of the blocks
   // `ids`, X = K^T.
   static Eigen::MatrixXd excess(const RowClusters& clusters,
                                 const std::vector<ceres::ResidualBlockId>& ids,
