@@ -151,7 +151,7 @@ void printBatch(const mvis::OfflineResult& batch, const mvis::OfflineResult& onl
     for (const auto& [t, chi2] : s.worst) std::printf(" %.2f: %.2f", mvis::toSeconds(t - t0), chi2);
     std::printf("\n");
   }
-  if (b.sigma_ratio_max != 1.0 || b.sigma_ratio_min != 1.0) {
+  if (b.model_calibration) {  // the clustered covariance
     std::printf(
         "batch: the calibration's sigmas, with the errors the residuals show beyond their noise "
         "model (clustered per corner track, second of frames, second of inertial factors), are "

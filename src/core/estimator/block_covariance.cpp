@@ -114,12 +114,9 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
   Eigen::MatrixXd X(n, k);
   for (const auto& [a, b] : blocks) X.middleCols(offset_.at(a), blocks_.at(a).rows()) = columns_[a];
   const Eigen::MatrixXd C = X.transpose() * X;
-  const auto backward = [&](Eigen::MatrixXd* Y) {  // W^T Y
-    *Y = scale.asDiagonal() * *Y;
-    ldlt.matrixU().solveInPlace(*Y);
-    *Y = ldlt.permutationPinv() * *Y;
-  };
-  backward(&X);
+  X = scale.asDiagonal() * X;
+  ldlt.matrixU().solveInPlace(X);
+  X = ldlt.permutationPinv() * X;
   clustered_ = C + excess(*clusters, residuals, problem, crs, r, X);
   clustered_ = 0.5 * (clustered_ + clustered_.transpose());
   for (const auto& [a, b] : blocks) {
