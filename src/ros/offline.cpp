@@ -139,6 +139,8 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
       result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
     }
     result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
+    result.unobservable.clear();
+    for (const auto& d : u.unobservable) result.unobservable.push_back(d.text());
   });
   std::map<std::string, std::size_t> kinds;  // kind -> index in result.warning_kinds
   double bag_time = 0.0;                     // of the message being read [s from the start]

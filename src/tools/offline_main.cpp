@@ -5,7 +5,7 @@
 //              [--max-iterations N] [--solve-every N]
 //              [--max-solve-time S]
 //              [--aux-model velocity_state|rigid_velocity] [--observability-ratio R]
-//              [--imu-observability-ratio R]
+//              [--imu-observability-ratio R] [--window-observability-ratio R]
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
@@ -43,6 +43,7 @@ int usage(const char* message) {
                "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--imu-observability-ratio R]\n"
+               "                    [--window-observability-ratio R]\n"
                "                    [--estimate-intrinsics]\n"
                "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
                "                    [--fixed-imu-linearization] [--propagation-noise]\n"
@@ -77,6 +78,8 @@ int usage(const char* message) {
                "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
                "                   0: off; see config/mvis.yaml)\n"
                "  --imu-observability-ratio R  the same for the IMU intrinsics (default 1)\n"
+               "  --window-observability-ratio R  the same asked of the window's information\n"
+               "                   about every calibration block jointly (default 0: off)\n"
                "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n"
                "  --estimate-imu-intrinsics  calibrate Dw, Da, R_IMUtoACC (kalibr: R_IMUtoGYRO)\n"
                "                   of every rpng or kalibr\n"
@@ -168,6 +171,7 @@ int main(int argc, char** argv) {
   std::string aux_model = "velocity_state";
   double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
   double imu_observability_ratio = mvis::EstimatorOptions{}.imu_intrinsics_observability_ratio;
+  double window_observability_ratio = mvis::EstimatorOptions{}.window_observability_ratio;
   double failure_step_sigma = mvis::EstimatorOptions{}.failure_step_sigma;
   double frame_gate_sigma = mvis::EstimatorOptions{}.frame_gate_sigma;
   bool estimate_intrinsics = false;
@@ -250,13 +254,15 @@ int main(int argc, char** argv) {
       if (!value(&aux_model) || (aux_model != "velocity_state" && aux_model != "rigid_velocity")) {
         return usage("--aux-model takes velocity_state or rigid_velocity");
       }
-    } else if (arg == "--observability-ratio" || arg == "--imu-observability-ratio") {
+    } else if (arg == "--observability-ratio" || arg == "--imu-observability-ratio" ||
+               arg == "--window-observability-ratio") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) {
         return usage((arg + " takes a number >= 0").c_str());
       }
-      (arg == "--observability-ratio" ? observability_ratio : imu_observability_ratio) =
-          std::atof(v.c_str());
+      (arg == "--observability-ratio"       ? observability_ratio
+       : arg == "--imu-observability-ratio" ? imu_observability_ratio
+                                            : window_observability_ratio) = std::atof(v.c_str());
     } else if (arg == "--estimate-intrinsics") {
       estimate_intrinsics = true;
     } else if (arg == "--estimate-imu-intrinsics") {
@@ -346,6 +352,7 @@ int main(int argc, char** argv) {
                                         : mvis::AuxImuModel::kVelocityState;
   options.estimator.observability_ratio = observability_ratio;
   options.estimator.imu_intrinsics_observability_ratio = imu_observability_ratio;
+  options.estimator.window_observability_ratio = window_observability_ratio;
   options.estimator.estimate_intrinsics = estimate_intrinsics;
   options.estimator.estimate_imu_intrinsics = estimate_imu_intrinsics;
   options.estimator.estimate_gravity_sensitivity = estimate_gravity_sensitivity;
@@ -461,7 +468,14 @@ int main(int argc, char** argv) {
     std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(o.decode_ms, 0.5),
                 percentile(o.decode_ms, 0.99));
   }
+  if (c.window_checks > 0) {
+    std::printf("; degeneracy check of the window's information %.1f ms each (%ld checks)",
+                1e3 * c.window_check_s / c.window_checks, c.window_checks);
+  }
   if (batched) printBatch(r, o);
+  for (const std::string& u : r.unobservable) {
+    std::printf("\nheld at the end (the motion could not calibrate it): %s", u.c_str());
+  }
   std::printf(
       "\n\n%s%s", batched ? "batch calibration:\n" : "",
       mvis::calibrationTable(initial.value(), r.calibration, truth ? &*truth : nullptr).c_str());

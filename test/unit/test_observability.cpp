@@ -6,13 +6,39 @@
 #include <random>
 
 #include "factor_test_util.h"
+#include "mvis/estimator/estimator.h"
 #include "mvis/estimator/observability.h"
+#include "mvis/estimator/window_information.h"
 #include "mvis/factors/state_blocks.h"
 #include "mvis/factors/marginalization_factor.h"
 #include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
 namespace {
+
+// A linear residual A_1 x_1 + ... + A_k x_k - b over k blocks (fixed matrices).
+class LinearCost final : public ceres::CostFunction {
+ public:
+  LinearCost(std::vector<Eigen::MatrixXd> A, Eigen::VectorXd b) : A_(std::move(A)), b_(std::move(b)) {
+    set_num_residuals(static_cast<int>(b_.size()));
+    for (const auto& a : A_) mutable_parameter_block_sizes()->push_back(static_cast<int>(a.cols()));
+  }
+  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
+    Eigen::Map<Eigen::VectorXd> r(residuals, b_.size());
+    r = -b_;
+    for (std::size_t i = 0; i < A_.size(); ++i) {
+      r += A_[i] * Eigen::Map<const Eigen::VectorXd>(x[i], A_[i].cols());
+      if (jacobians != nullptr && jacobians[i] != nullptr) {
+        Eigen::Map<test::RowMatrix>(jacobians[i], A_[i].rows(), A_[i].cols()) = A_[i];
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::vector<Eigen::MatrixXd> A_;
+  Eigen::VectorXd b_;
+};
 
 // Rotation about one axis k: int hat(w)^T hat(w) has k as its null space (report Table 2).
 TEST(Observability, OneAxisRotationLeavesTheAxis) {
@@ -62,34 +88,6 @@ TEST(Observability, SubspaceManifoldMovesOnlyAlongItsBasis) {
   EXPECT_LT(J.row(6).norm(), 1e-12);
 }
 
-// r = A1 x1 + A2 x2 - z.
-class LinearCost final : public ceres::CostFunction {
- public:
-  LinearCost(Eigen::MatrixXd A1, Eigen::MatrixXd A2, Eigen::VectorXd z)
-      : A1_(std::move(A1)), A2_(std::move(A2)), z_(std::move(z)) {
-    set_num_residuals(static_cast<int>(z_.size()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(A1_.cols()));
-    if (A2_.size() > 0) mutable_parameter_block_sizes()->push_back(static_cast<int>(A2_.cols()));
-  }
-  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
-    Eigen::VectorXd r = A1_ * Eigen::Map<const Eigen::VectorXd>(x[0], A1_.cols()) - z_;
-    if (A2_.size() > 0) r += A2_ * Eigen::Map<const Eigen::VectorXd>(x[1], A2_.cols());
-    Eigen::Map<Eigen::VectorXd>(residuals, r.size()) = r;
-    if (jacobians != nullptr) {
-      if (jacobians[0] != nullptr) {
-        Eigen::Map<test::RowMatrix>(jacobians[0], A1_.rows(), A1_.cols()) = A1_;
-      }
-      if (A2_.size() > 0 && jacobians[1] != nullptr) {
-        Eigen::Map<test::RowMatrix>(jacobians[1], A2_.rows(), A2_.cols()) = A2_;
-      }
-    }
-    return true;
-  }
-
- private:
-  Eigen::MatrixXd A1_, A2_;
-  Eigen::VectorXd z_;
-};
 
 // A projected residual's information along an uninformative direction u of a kept block is
 // marginalized out before the dropped block is: the prior equals that dense computation, and
@@ -131,9 +129,9 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
       for (int j = 0; j < c; ++j) m(i, j) = n(rng);
     return m;
   };
-  const LinearCost a(random(6, 2), random(6, 3), random(6, 1));       // on x1 (dropped), x2
-  const LinearCost c(random(2, 2), Eigen::MatrixXd(), random(2, 1));  // on x1
-  const LinearCost e(random(4, 3), Eigen::MatrixXd(), random(4, 1));  // on x2, the old prior
+  const LinearCost a({random(6, 2), random(6, 3)}, random(6, 1));  // on x1 (dropped), x2
+  const LinearCost c({random(2, 2)}, random(2, 1));                // on x1
+  const LinearCost e({random(4, 3)}, random(4, 1));                // on x2, the old prior
   double x1[2] = {0.2, -0.3}, x2[3] = {0.5, 1.0, -1.5};
   const Eigen::Vector3d u = Eigen::Vector3d(1.0, -2.0, 0.5).normalized();
 
@@ -197,6 +195,74 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
       EXPECT_GT((H * u).norm(), 1e-3 * H.norm());
     }
   }
+}
+
+
+// The window's information about chosen blocks against a dense Schur complement computed here:
+// the other variable blocks marginalized, a constant block as known, the chosen blocks' priors
+// (on them alone, one block or two) left out, a chosen block's manifold giving its tangent.
+TEST(Observability, WindowInformationIsTheSchurComplementWithoutThePriors) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01;
+  const auto random = [&](int r, int c) {
+    Eigen::MatrixXd m(r, c);
+    for (int i = 0; i < m.size(); ++i) m(i) = n01(rng);
+    return m;
+  };
+  // Nuisance x1 (3), x2 (2), constant z (2); chosen c1 (3 ambient, entry 1 fixed by its
+  // manifold: tangent 2) and c2 (1).
+  double x1[3] = {0.1, 0.2, 0.3}, x2[2] = {0.0, 1.0}, z[2] = {2.0, -1.0};
+  double c1[3] = {0.5, 0.5, 0.5}, c2[1] = {0.0};
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  problem.AddParameterBlock(c1, 3, new ceres::SubsetManifold(3, {1}));
+  const Eigen::MatrixXd A1 = random(6, 3), A2 = random(6, 2), Az = random(6, 2),
+                        Ac1 = random(6, 3), B2 = random(4, 2), Bc2 = random(4, 1),
+                        P1 = random(3, 3), Pc1 = random(3, 3), Pc12a = random(2, 3),
+                        Pc12b = random(2, 1);
+  problem.AddResidualBlock(new LinearCost({A1, A2, Az, Ac1}, random(6, 1)), nullptr,
+                           {x1, x2, z, c1});
+  problem.AddResidualBlock(new LinearCost({B2, Bc2}, random(4, 1)), nullptr, {x2, c2});
+  problem.AddResidualBlock(new LinearCost({P1}, random(3, 1)), nullptr, {x1});  // kept
+  problem.AddResidualBlock(new LinearCost({Pc1}, random(3, 1)), nullptr, {c1});  // priors
+  problem.AddResidualBlock(new LinearCost({Pc12a, Pc12b}, random(2, 1)), nullptr, {c1, c2});
+  problem.SetParameterBlockConstant(z);
+
+  const auto got = windowInformation(&problem, {c1, c2});
+  ASSERT_TRUE(got.ok()) << got.status().message();
+  // Columns [x1 (3), x2 (2), c1's tangent (entries 0 and 2), c2]; rows the kept residuals.
+  Eigen::MatrixXd T1 = Eigen::MatrixXd::Zero(3, 2);
+  T1(0, 0) = T1(2, 1) = 1.0;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(13, 8);
+  J.block(0, 0, 6, 3) = A1;
+  J.block(0, 3, 6, 2) = A2;
+  J.block(0, 5, 6, 2) = Ac1 * T1;
+  J.block(6, 3, 4, 2) = B2;
+  J.block(6, 7, 4, 1) = Bc2;
+  J.block(10, 0, 3, 3) = P1;
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::MatrixXd expected =
+      H.bottomRightCorner(3, 3) -
+      H.bottomLeftCorner(3, 5) * H.topLeftCorner(5, 5).inverse() * H.topRightCorner(5, 3);
+  ASSERT_EQ(got.value().rows(), 3);
+  EXPECT_LT((got.value() - expected).norm(), 1e-8 * expected.norm()) << got.value() << "\n"
+                                                                      << expected;
+  // A constant chosen block is refused.
+  problem.SetParameterBlockConstant(c2);
+  EXPECT_FALSE(windowInformation(&problem, {c1, c2}).ok());
+}
+
+// A direction shared between sensors is named with every sensor's part.
+TEST(Observability, SharedDirectionInWords) {
+  UnobservableCalibration u;
+  u.sensor = "imu0+cam0";
+  u.quantity = "shared direction";
+  u.shared = {"imu0 intrinsics (theta_x)", "cam0 rotation about (1.00, 0.00, 0.00)"};
+  u.advice = "rotate about another axis too";
+  EXPECT_EQ(u.text(),
+            "shared direction of imu0 intrinsics (theta_x), cam0 rotation about (1.00, 0.00, "
+            "0.00): rotate about another axis too");
 }
 
 }  // namespace

@@ -58,6 +58,8 @@ struct OfflineResult {
   double sigma_inflation = 1.0;       // Estimator::sigmaInflation at the end
   std::string status;                 // the estimator's last word
   std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
+  // What the last update found unobservable and held (UnobservableCalibration::text()).
+  std::vector<std::string> unobservable;
   // Every dropped message and every complaint of the estimator (a gap, a reset, a sensor that
   // left the window) by kind, in the order they first happened.
   std::vector<OfflineWarning> warning_kinds;

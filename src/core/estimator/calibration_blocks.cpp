@@ -244,9 +244,9 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       out[c].timeshift_cam_imu = std::sqrt(std::max(v, 0.0));
     }
     if (!problem.IsParameterBlockConstant(cb.intrinsics)) {
-      Eigen::Matrix<double, 8, 8, Eigen::RowMajor> C;
-      cov.GetCovarianceBlock(cb.intrinsics, cb.intrinsics, C.data());
-      const Eigen::Matrix<double, 8, 1> sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+      // In its own tangent: a part held keeps its variance there (tangentCovariance).
+      const Eigen::Matrix<double, 8, 1> sd =
+          tangent(cb.intrinsics).diagonal().cwiseMax(0.0).cwiseSqrt();
       out[c].intrinsics = sd.head<4>();
       out[c].distortion_coeffs = sd.tail<4>();
     }
@@ -284,6 +284,13 @@ Eigen::VectorXd CalibrationBlocks::latestStd(const double* block) const {
     if (block == cb.time_offset) {
       const double v = have ? (*camera_std_)[c].timeshift_cam_imu : 0.0;
       return Eigen::VectorXd::Constant(1, v > 0 ? v : cb.prior.time_offset);
+    }
+    if (block == cb.intrinsics) {
+      Eigen::VectorXd sd = cb.intrinsics_prior;
+      if (have && (*camera_std_)[c].intrinsics.norm() > 0) {
+        sd << (*camera_std_)[c].intrinsics, (*camera_std_)[c].distortion_coeffs;
+      }
+      return sd;
     }
   }
   for (const auto& a : aux_) {

@@ -215,6 +215,8 @@ void Estimator::Impl::process() {
       SolveSummary summary;
       if (!options.batch && ++frames_since_solve >= options.solve_every) {
         monitor.check(window.problem());  // holds what the motion cannot observe before solving
+        counters.window_checks = monitor.windowChecks();
+        counters.window_check_s = monitor.windowCheckSeconds();
         summary = solve(options.max_iterations);
         frames_since_solve = 0;
         const std::string why = failure();

@@ -94,6 +94,9 @@ Status validate(const EstimatorOptions& o) {
   if (!(o.imu_intrinsics_observability_ratio >= 0.0)) {
     return bad("imu_intrinsics_observability_ratio", "must be zero (off) or positive");
   }
+  if (!(o.window_observability_ratio >= 0.0)) {
+    return bad("window_observability_ratio", "must be zero (off) or positive");
+  }
   if (!(o.observability_ratio >= 0.0)) {
     return bad("observability_ratio", "must be zero (off) or positive");
   }

@@ -11,6 +11,12 @@ namespace mvis {
 
 std::string UnobservableCalibration::text() const {
   std::ostringstream s;
+  if (!shared.empty()) {
+    s << "shared direction of";
+    for (std::size_t k = 0; k < shared.size(); ++k) s << (k ? ", " : " ") << shared[k];
+    s << ": " << advice;
+    return s.str();
+  }
   s << sensor << ' ' << quantity;
   if (!elements.empty()) {
     s << " (";

@@ -13,13 +13,9 @@
 namespace mvis {
 
 namespace estimator_internal {
-namespace {
 
-// The intrinsics element a weak direction mostly moves (ambient entries `elements`), as the
-// report writes them: dw12 (Dw row 1, column 2), da33, tg21, and "theta_y" for the
-// accelerometer rotation about y (kalibr model: "theta_g_y" for the gyroscope's).
-std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd& direction,
-                        bool kalibr) {
+std::string intrinsicsElementName(const std::vector<int>& elements,
+                                  const Eigen::VectorXd& direction, bool kalibr) {
   int k = 0;
   direction.cwiseAbs().maxCoeff(&k);
   using L = ImuIntrinsicsLayout;
@@ -40,8 +36,6 @@ std::string elementName(const std::vector<int>& elements, const Eigen::VectorXd&
   }
   return std::string(kalibr ? "theta_g_" : "theta_") + "xyz"[e - L::kAccRotation];
 }
-
-}  // namespace
 
 // One calibrated quantity: rows [offset, offset + size) of its block's tangent, and the
 // information the recent motion gives it (tangent coordinates).
@@ -75,6 +69,11 @@ void ObservabilityMonitor::clear() {
   motion_.clear();
   for (auto& m : moments_) m.clear();
   holds_.clear();
+  window_parts_.clear();
+  window_found_.clear();
+  window_blocks_.clear();
+  window_weak_ = false;
+  solves_since_window_check_ = 0;
 }
 
 void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
@@ -149,8 +148,9 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
 void ObservabilityMonitor::check(ceres::Problem* problem) {
   unobservable_.clear();
   uninformative_.clear();
-  const bool off =
-      options_.observability_ratio <= 0.0 && options_.imu_intrinsics_observability_ratio <= 0.0;
+  const bool off = options_.observability_ratio <= 0.0 &&
+                   options_.imu_intrinsics_observability_ratio <= 0.0 &&
+                   options_.window_observability_ratio <= 0.0;
   if (off || motion_.empty()) {
     applyHolds(problem);
     return;
@@ -177,7 +177,7 @@ void ObservabilityMonitor::check(ceres::Problem* problem) {
     for (int c = 0; c < weak.directions.cols(); ++c) {
       u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
       if (!q.symbol.empty()) {
-        u.elements.push_back(elementName(q.elements, weak.directions.col(c), q.kalibr));
+        u.elements.push_back(intrinsicsElementName(q.elements, weak.directions.col(c), q.kalibr));
         continue;
       }
       if (q.size != 3) continue;
@@ -204,6 +204,7 @@ void ObservabilityMonitor::check(ceres::Problem* problem) {
       }
     }
   }
+  windowCheck(problem);
   applyHolds(problem);
 }
 
@@ -437,7 +438,8 @@ void ObservabilityMonitor::applyHolds(ceres::Problem* problem) {
       // and re-estimate their variance, so a subspace within ~0.1 rad counts as the same.
       const Eigen::MatrixXd& E = existing->second.directions;
       const double change = (E * E.transpose() - D * D.transpose()).norm();
-      if (change < (intrinsics_.isBlock(block) ? 0.1 : 1e-9)) continue;
+      const bool wobbles = intrinsics_.isBlock(block) || window_blocks_.count(block) > 0;
+      if (change < (wobbles ? 0.1 : 1e-9)) continue;
     }
     Hold hold;
     hold.base = existing != holds_.end()
@@ -524,6 +526,28 @@ Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
   return B * C * B.transpose() + K;
 }
 
+void ObservabilityMonitor::liftHolds(ceres::Problem* problem) {
+  for (const auto& [const_block, hold] : holds_) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.base);
+    } else {
+      problem->SetParameterBlockVariable(block);
+    }
+  }
+}
+
+void ObservabilityMonitor::restoreHolds(ceres::Problem* problem) {
+  for (const auto& [const_block, hold] : holds_) {
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, hold.subspace.get());
+    } else {
+      problem->SetParameterBlockConstant(block);
+    }
+  }
+}
+
 Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
                                                     const std::vector<double*>& poses,
                                                     std::vector<Eigen::Matrix<double, 6, 6>>* out) {
@@ -538,14 +562,10 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
   std::vector<std::pair<std::uint64_t, const double*>> order;
   for (const auto& [block, hold] : holds_) order.emplace_back(hold.sequence, block);
   std::sort(order.begin(), order.end());
+  liftHolds(problem);
   for (const auto& [sequence, const_block] : order) {
     Hold& hold = holds_.at(const_block);
     double* block = const_cast<double*>(const_block);
-    if (hold.subspace) {
-      problem->SetManifold(block, hold.base);
-    } else {
-      problem->SetParameterBlockVariable(block);
-    }
     const int ambient = problem->ParameterBlockSize(block);
     added.push_back(problem->AddResidualBlock(
         new TangentPriorFactor(hold.base, std::vector<double>(block, block + ambient),
@@ -561,14 +581,7 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
     cov.GetCovarianceBlockInTangentSpace(poses[k], poses[k], (*out)[k].data());
   }
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
-  for (auto& [const_block, hold] : holds_) {
-    double* block = const_cast<double*>(const_block);
-    if (hold.subspace) {
-      problem->SetManifold(block, hold.subspace.get());
-    } else {
-      problem->SetParameterBlockConstant(block);
-    }
-  }
+  restoreHolds(problem);
   return ok ? Status::Ok() : Status::Error("pose covariance with the held directions failed");
 }
 

@@ -16,6 +16,8 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <set>
+#include <string>
 #include <vector>
 
 #include "block_covariance.h"
@@ -24,6 +26,12 @@
 
 namespace mvis {
 namespace estimator_internal {
+
+// The intrinsics element a weak direction mostly moves (its tangent entries' ambient indices
+// `elements`), as the report writes them: dw12 (Dw row 1, column 2), da33, tg21, and "theta_y"
+// for the accelerometer rotation about y (kalibr model: "theta_g_y" for the gyroscope's).
+std::string intrinsicsElementName(const std::vector<int>& elements,
+                                  const Eigen::VectorXd& direction, bool kalibr);
 
 class ObservabilityMonitor {
  public:
@@ -62,6 +70,9 @@ class ObservabilityMonitor {
   Status poseCovarianceWithHeld(ceres::Problem* problem, const std::vector<double*>& poses,
                                 std::vector<Eigen::Matrix<double, 6, 6>>* out);
   bool holding() const { return !holds_.empty(); }
+  // The joint check's cost: seconds in total and how many times it ran.
+  double windowCheckSeconds() const { return window_check_s_; }
+  long windowChecks() const { return window_checks_; }
   // Forgets everything (the problem the holds were in is gone).
   void clear();
 
@@ -94,6 +105,16 @@ class ObservabilityMonitor {
   };
   struct Quantity;
 
+  // The window's information about every estimated calibration block jointly
+  // (window_information.h), whitened by the blocks' priors and restricted to what the checks
+  // above left free: its directions with less than `window_observability_ratio` are held too,
+  // each block's share of them (observability_window.cpp).
+  void windowCheck(ceres::Problem* problem);
+  // Adds the joint check's parts to uninformative_ and its findings to unobservable_.
+  void holdWindowParts();
+  // The holds lifted (own manifolds, variable) and put back.
+  void liftHolds(ceres::Problem* problem);
+  void restoreHolds(ceres::Problem* problem);
   void spatialQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void intrinsicsQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void applyHolds(ceres::Problem* problem);
@@ -111,6 +132,13 @@ class ObservabilityMonitor {
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Hold> holds_;
   std::uint64_t holds_made_ = 0;
+  std::set<const double*> window_blocks_;  // blocks holding a part of a joint weak direction
+  std::vector<std::pair<const double*, Eigen::VectorXd>> window_parts_;  // (block, direction)
+  std::vector<UnobservableCalibration> window_found_;
+  long solves_since_window_check_ = 0;
+  bool window_weak_ = false;  // the last joint check found weak directions (release at 4x)
+  double window_check_s_ = 0.0;
+  long window_checks_ = 0;
 };
 
 }  // namespace estimator_internal
