@@ -339,6 +339,33 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   EXPECT_LT(std::abs(moved(2, 2)), 1e-4);
 }
 
+// Issue 22: yaw-only motion with every IMU's intrinsics and the cameras' and auxiliary sensors'
+// extrinsics and time offsets free. The Table 3 check holds imu0's Dw columns for the rates that
+// stay near zero; they set the gyroscope's rotation axis, to which the hand-eye relation ties the
+// cameras' tilt. Marginalized as unknown (before), they took that tie along, the cameras' tilt
+// rested on the current window alone and drifted: seed 1 of `scripts/monte_carlo 2 --motion
+// yaw_only --imu-intrinsics` ended the cameras 1.4 deg off at up to 30 sigma. Marginalized within
+// the variance they keep (marginalization_factor.h), 0.08 deg there. Here (20 s, seed 3, this
+// file's truth): 0.70 deg at 1.0 sigma (before: 1.47 deg at 8.1 sigma, time offsets 2.5 ms).
+// Bounds: 3 sigma per axis, and 1 deg (the guess is 2 deg per axis off).
+TEST(Estimator, YawOnlyMotionWithEveryQuantityFreeKeepsTheCamerasConsistent) {
+  SimRun run = simulate("sim_vi_rig", 20.0, 3, MotionKind::kYawOnly, false, withIntrinsics);
+  perturbIntrinsics(&run.guess, 3, 1.0);
+  const auto estimator =
+      runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
+    std::printf("%s: rotation %.3f deg (largest error/sigma %.2f), time offset %.3f ms (%.2f)\n",
+                run.truth.cameras[c].name.c_str(), e.rotation_deg,
+                e.rotation_sigma_ratio.maxCoeff(), e.time_offset_ms, e.time_offset_sigma_ratio);
+    EXPECT_LT(e.rotation_sigma_ratio.maxCoeff(), 3.0) << run.truth.cameras[c].name;
+    EXPECT_LT(e.rotation_deg, 1.0) << run.truth.cameras[c].name;
+    EXPECT_LT(e.time_offset_sigma_ratio, 3.0) << run.truth.cameras[c].name;
+  }
+}
+
 }  // namespace
 }  // namespace mvis
 

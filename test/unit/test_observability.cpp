@@ -3,14 +3,16 @@
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <map>
 #include <random>
 
 #include "factor_test_util.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/observability.h"
 #include "mvis/estimator/window_information.h"
-#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/marginalization_factor.h"
+#include "mvis/factors/state_blocks.h"
 #include "mvis/factors/tangent_prior_factor.h"
 
 namespace mvis {
@@ -19,7 +21,8 @@ namespace {
 // A linear residual A_1 x_1 + ... + A_k x_k - b over k blocks (fixed matrices).
 class LinearCost final : public ceres::CostFunction {
  public:
-  LinearCost(std::vector<Eigen::MatrixXd> A, Eigen::VectorXd b) : A_(std::move(A)), b_(std::move(b)) {
+  LinearCost(std::vector<Eigen::MatrixXd> A, Eigen::VectorXd b)
+      : A_(std::move(A)), b_(std::move(b)) {
     set_num_residuals(static_cast<int>(b_.size()));
     for (const auto& a : A_) mutable_parameter_block_sizes()->push_back(static_cast<int>(a.cols()));
   }
@@ -87,7 +90,6 @@ TEST(Observability, SubspaceManifoldMovesOnlyAlongItsBasis) {
   EXPECT_LT((J.topRows(6) - Eigen::MatrixXd(B)).norm(), 1e-12);
   EXPECT_LT(J.row(6).norm(), 1e-12);
 }
-
 
 // A projected residual's information along an uninformative direction u of a kept block is
 // marginalized out before the dropped block is: the prior equals that dense computation, and
@@ -157,46 +159,61 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
   linear(c, {x1}, &Jc, &rc);
   linear(e, {x2}, &Je, &re);
 
-  for (const bool with_old_prior : {false, true}) {
-    Marginalizer m;
-    m.setUninformative(x2, u);
-    m.addResidual(&a, nullptr, {x1, x2}, true);
-    m.addResidual(&c, nullptr, {x1}, true);
-    if (with_old_prior) m.addResidual(&e, nullptr, {x2}, false);
-    auto made = m.marginalize({x1});
-    ASSERT_TRUE(made.ok()) << made.status().message();
-    const MarginalizationFactor& prior = *made.value();
-    const Eigen::MatrixXd H = prior.J0().transpose() * prior.J0();
-    const Eigen::VectorXd g = prior.J0().transpose() * prior.r0();
+  // Without a kept variance (U unknown) and with one (U held within v = 0.04).
+  std::map<double, Eigen::MatrixXd> alone;  // per v, the prior without the old one
+  for (const double v : {0.0, 0.04})
+    for (const bool with_old_prior : {false, true}) {
+      Marginalizer m;
+      m.setUninformative(x2, u, v > 0.0 ? Eigen::VectorXd::Constant(1, v) : Eigen::VectorXd());
+      m.addResidual(&a, nullptr, {x1, x2}, true);
+      m.addResidual(&c, nullptr, {x1}, true);
+      if (with_old_prior) m.addResidual(&e, nullptr, {x2}, false);
+      auto made = m.marginalize({x1});
+      ASSERT_TRUE(made.ok()) << made.status().message();
+      const MarginalizationFactor& prior = *made.value();
+      const Eigen::MatrixXd H = prior.J0().transpose() * prior.J0();
+      const Eigen::VectorXd g = prior.J0().transpose() * prior.r0();
 
-    // Dense: forget U = [0; u] in the projected residuals, add the rest, Schur out x1.
-    Eigen::MatrixXd Hp = Ja.transpose() * Ja + Jc.transpose() * Jc;
-    Eigen::VectorXd gp = Ja.transpose() * ra + Jc.transpose() * rc;
-    Eigen::VectorXd U = Eigen::VectorXd::Zero(5);
-    U.tail(3) = u;
-    const Eigen::VectorXd HpU = Hp * U;
-    const double UHU = U.dot(HpU);
-    Eigen::MatrixXd Hf = Hp - HpU * HpU.transpose() / UHU;
-    Eigen::VectorXd gf = gp - HpU * U.dot(gp) / UHU;
-    if (with_old_prior) {
-      Hf += Je.transpose() * Je;
-      gf += Je.transpose() * re;
+      // Dense: forget U = [0; u] in the projected residuals (marginalized with the prior 1/v on
+      // it, then what is left along it projected away), add the rest, Schur out x1.
+      Eigen::MatrixXd Hp = Ja.transpose() * Ja + Jc.transpose() * Jc;
+      Eigen::VectorXd gp = Ja.transpose() * ra + Jc.transpose() * rc;
+      Eigen::VectorXd U = Eigen::VectorXd::Zero(5);
+      U.tail(3) = u;
+      const Eigen::VectorXd HpU = Hp * U;
+      const double UHU = U.dot(HpU) + (v > 0.0 ? 1.0 / v : 0.0);
+      Eigen::MatrixXd Hf = Hp - HpU * HpU.transpose() / UHU;
+      Eigen::VectorXd gf = gp - HpU * U.dot(gp) / UHU;
+      if (v > 0.0) {
+        const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(5, 5) - U * U.transpose();
+        Hf = P * Hf * P;
+        gf = P * gf;
+      }
+      if (with_old_prior) {
+        Hf += Je.transpose() * Je;
+        gf += Je.transpose() * re;
+      }
+      const Eigen::MatrixXd H11_inv = Hf.topLeftCorner(2, 2).inverse();
+      const Eigen::MatrixXd Hs = Hf.bottomRightCorner(3, 3) -
+                                 Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
+      const Eigen::VectorXd gs = gf.tail(3) - Hf.bottomLeftCorner(3, 2) * H11_inv * gf.head(2);
+      EXPECT_LT((H - Hs).norm(), 1e-8 * Hs.norm()) << with_old_prior << v;
+      EXPECT_LT((g - gs).norm(), 1e-8 * (1.0 + gs.norm())) << with_old_prior << v;
+      if (!with_old_prior) {
+        // Nothing else informs u: the prior says nothing along it.
+        EXPECT_LT((H * u).norm(), 1e-8 * H.norm());
+        alone[v] = H;
+      } else {
+        EXPECT_GT((H * u).norm(), 1e-3 * H.norm());
+      }
     }
-    const Eigen::MatrixXd H11_inv = Hf.topLeftCorner(2, 2).inverse();
-    const Eigen::MatrixXd Hs =
-        Hf.bottomRightCorner(3, 3) - Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
-    const Eigen::VectorXd gs = gf.tail(3) - Hf.bottomLeftCorner(3, 2) * H11_inv * gf.head(2);
-    EXPECT_LT((H - Hs).norm(), 1e-8 * Hs.norm()) << with_old_prior;
-    EXPECT_LT((g - gs).norm(), 1e-8 * (1.0 + gs.norm())) << with_old_prior;
-    if (!with_old_prior) {
-      // Nothing else informs u: the prior says nothing along it.
-      EXPECT_LT((H * u).norm(), 1e-8 * H.norm());
-    } else {
-      EXPECT_GT((H * u).norm(), 1e-3 * H.norm());
-    }
-  }
+  // Held within a variance, u keeps what the residuals tell about the rest given it: more than
+  // with u unknown, never less.
+  const Eigen::MatrixXd more = alone[0.04] - alone[0.0];
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (more + more.transpose()));
+  EXPECT_GT(es.eigenvalues().minCoeff(), -1e-9 * alone[0.0].norm());
+  EXPECT_GT(es.eigenvalues().maxCoeff(), 1e-3 * alone[0.0].norm());
 }
-
 
 // The window's information about chosen blocks against a dense Schur complement computed here:
 // the other variable blocks marginalized, a constant block as known, the chosen blocks' priors
@@ -217,14 +234,13 @@ TEST(Observability, WindowInformationIsTheSchurComplementWithoutThePriors) {
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   problem.AddParameterBlock(c1, 3, new ceres::SubsetManifold(3, {1}));
-  const Eigen::MatrixXd A1 = random(6, 3), A2 = random(6, 2), Az = random(6, 2),
-                        Ac1 = random(6, 3), B2 = random(4, 2), Bc2 = random(4, 1),
-                        P1 = random(3, 3), Pc1 = random(3, 3), Pc12a = random(2, 3),
-                        Pc12b = random(2, 1);
+  const Eigen::MatrixXd A1 = random(6, 3), A2 = random(6, 2), Az = random(6, 2), Ac1 = random(6, 3),
+                        B2 = random(4, 2), Bc2 = random(4, 1), P1 = random(3, 3),
+                        Pc1 = random(3, 3), Pc12a = random(2, 3), Pc12b = random(2, 1);
   problem.AddResidualBlock(new LinearCost({A1, A2, Az, Ac1}, random(6, 1)), nullptr,
                            {x1, x2, z, c1});
   problem.AddResidualBlock(new LinearCost({B2, Bc2}, random(4, 1)), nullptr, {x2, c2});
-  problem.AddResidualBlock(new LinearCost({P1}, random(3, 1)), nullptr, {x1});  // kept
+  problem.AddResidualBlock(new LinearCost({P1}, random(3, 1)), nullptr, {x1});   // kept
   problem.AddResidualBlock(new LinearCost({Pc1}, random(3, 1)), nullptr, {c1});  // priors
   problem.AddResidualBlock(new LinearCost({Pc12a, Pc12b}, random(2, 1)), nullptr, {c1, c2});
   problem.SetParameterBlockConstant(z);
@@ -242,12 +258,12 @@ TEST(Observability, WindowInformationIsTheSchurComplementWithoutThePriors) {
   J.block(6, 7, 4, 1) = Bc2;
   J.block(10, 0, 3, 3) = P1;
   const Eigen::MatrixXd H = J.transpose() * J;
-  const Eigen::MatrixXd expected =
-      H.bottomRightCorner(3, 3) -
-      H.bottomLeftCorner(3, 5) * H.topLeftCorner(5, 5).inverse() * H.topRightCorner(5, 3);
+  const Eigen::MatrixXd expected = H.bottomRightCorner(3, 3) - H.bottomLeftCorner(3, 5) *
+                                                                   H.topLeftCorner(5, 5).inverse() *
+                                                                   H.topRightCorner(5, 3);
   ASSERT_EQ(got.value().rows(), 3);
   EXPECT_LT((got.value() - expected).norm(), 1e-8 * expected.norm()) << got.value() << "\n"
-                                                                      << expected;
+                                                                     << expected;
   // A constant chosen block is refused.
   problem.SetParameterBlockConstant(c2);
   EXPECT_FALSE(windowInformation(&problem, {c1, c2}).ok());

@@ -183,8 +183,9 @@ struct EstimatorOptions {
   // states unknown), over what the blocks' priors hold; a direction with less than this ratio
   // is held, each sensor's part of it, checked every tenth solve. Its cost is in the counters.
   // Off by default (0): on the simulated yaw-only run with every quantity free it did not make
-  // the cameras consistent (doc/results.md), and at 0.01-1 it also holds weak but informative
-  // directions (distortion, IMU intrinsics shortly after a restart).
+  // the cameras consistent (measured before the IMU intrinsics' holds kept their variance in the
+  // marginalization, which did; doc/results.md), and at 0.01-1 it also holds weak but
+  // informative directions (distortion, IMU intrinsics shortly after a restart).
   double window_observability_ratio = 0.0;
   // The same for the IMU intrinsics (report Table 3): a reading component (rate or specific
   // force along an axis) that stays constant over the horizon cannot be told from the bias, and

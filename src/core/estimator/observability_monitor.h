@@ -52,6 +52,9 @@ class ObservabilityMonitor {
   // leaves the window must not inform.
   const std::vector<UnobservableCalibration>& unobservable() const { return unobservable_; }
   const std::map<const double*, Eigen::MatrixXd>& uninformative() const { return uninformative_; }
+  // The same as held: per block the held directions (orthonormal tangent columns, spanning
+  // uninformative()'s) and the variance each keeps, for the marginalization.
+  std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>> heldDirections() const;
 
   // The block's own manifold, also while it is held.
   const ceres::Manifold* baseManifold(const ceres::Problem& problem, const double* block) const;

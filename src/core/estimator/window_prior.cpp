@@ -8,7 +8,8 @@ namespace estimator_internal {
 StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
     const ManifoldOf& manifold_of,
-    const std::map<const double*, Eigen::MatrixXd>& uninformative) const {
+    const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative)
+    const {
   Marginalizer m;
   for (const auto& r : residuals) {
     for (double* block : r.blocks) m.setManifold(block, manifold_of(block));
@@ -18,7 +19,9 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     for (double* block : whole_->parameterBlocks()) m.setManifold(block, manifold_of(block));
     m.addPrior(whole_.get());
   }
-  for (const auto& [block, directions] : uninformative) m.setUninformative(block, directions);
+  for (const auto& [block, held] : uninformative) {
+    m.setUninformative(block, held.first, held.second);
+  }
   return m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
 }
 

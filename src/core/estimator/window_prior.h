@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "mvis/common/status.h"
@@ -28,11 +29,13 @@ class WindowPrior {
 
   // The prior after marginalizing `leaving` out of `residuals` and the current prior; nothing
   // changes in the problem yet. The measurements add nothing along `uninformative` (per block,
-  // tangent directions as columns); the old prior keeps what earlier motion told.
+  // tangent directions as columns, and the variance each keeps while held:
+  // marginalization_factor.h); the old prior keeps what earlier motion told.
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(
       const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
       const ManifoldOf& manifold_of,
-      const std::map<const double*, Eigen::MatrixXd>& uninformative) const;
+      const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative)
+      const;
   // Removes the current prior's rows from the problem and forgets it.
   void removeFrom(ceres::Problem* problem);
   // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense
