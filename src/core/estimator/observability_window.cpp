@@ -89,7 +89,7 @@ void ObservabilityMonitor::windowCheck(ceres::Problem* problem) {
   // name a direction in them.
   struct Checked {
     double* block;
-    std::string sensor, quantity;
+    std::string sensor;
     Eigen::VectorXd prior_std;
     enum Kind { kExtrinsic, kRotation, kTimeOffset, kCameraIntrinsics, kImuIntrinsics } kind;
     Eigen::Matrix3d R_X_I = Eigen::Matrix3d::Identity();  // extrinsics: the block's rotation
@@ -102,15 +102,14 @@ void ObservabilityMonitor::windowCheck(ceres::Problem* problem) {
   };
   const auto pose = [&](double* block, const std::string& sensor, const CalibrationPrior& p) {
     if (!estimated(*problem, block)) return;
-    Checked c{block, sensor, "extrinsic", Eigen::VectorXd(6), Checked::kExtrinsic};
+    Checked c{block, sensor, Eigen::VectorXd(6), Checked::kExtrinsic};
     c.prior_std << p.rotation, p.translation;
     c.R_X_I = poseRotation(block).toRotationMatrix();
     checked.push_back(c);
   };
   const auto offset = [&](double* block, const std::string& sensor, double prior) {
     if (!estimated(*problem, block)) return;
-    checked.push_back(
-        {block, sensor, "time offset", Eigen::VectorXd::Constant(1, prior), Checked::kTimeOffset});
+    checked.push_back({block, sensor, Eigen::VectorXd::Constant(1, prior), Checked::kTimeOffset});
   };
   for (std::size_t c = 0; c < calibration_.cameras(); ++c) {
     const CameraBlocks& cb = calibration_.camera(c);
@@ -118,8 +117,8 @@ void ObservabilityMonitor::windowCheck(ceres::Problem* problem) {
     pose(const_cast<double*>(cb.extrinsic), name, cb.prior);
     offset(const_cast<double*>(cb.time_offset), name, cb.prior.time_offset);
     if (estimated(*problem, cb.intrinsics) && tangentOf(cb.intrinsics) == kIntrinsicsSize) {
-      checked.push_back({const_cast<double*>(cb.intrinsics), name, "intrinsics",
-                         cb.intrinsics_prior, Checked::kCameraIntrinsics});
+      checked.push_back({const_cast<double*>(cb.intrinsics), name, cb.intrinsics_prior,
+                         Checked::kCameraIntrinsics});
     }
   }
   for (std::size_t i = 0; i < calibration_.auxiliaries(); ++i) {
@@ -127,8 +126,8 @@ void ObservabilityMonitor::windowCheck(ceres::Problem* problem) {
     const std::string& name = rig_.inertial[a.sensor].name;
     if (a.gyro) {
       if (estimated(*problem, a.rotation)) {
-        checked.push_back({const_cast<double*>(a.rotation), name, "rotation", a.prior.rotation,
-                           Checked::kRotation});
+        checked.push_back(
+            {const_cast<double*>(a.rotation), name, a.prior.rotation, Checked::kRotation});
       }
     } else {
       pose(const_cast<double*>(a.extrinsic), name, a.prior);
@@ -138,7 +137,7 @@ void ObservabilityMonitor::windowCheck(ceres::Problem* problem) {
   for (std::size_t i = 0; i < intrinsics_.sensors(); ++i) {
     const ImuIntrinsicsBlock* b = intrinsics_.block(i);
     if (b == nullptr || !estimated(*problem, b->x)) continue;
-    Checked c{const_cast<double*>(b->x), rig_.inertial[i].name, "intrinsics",
+    Checked c{const_cast<double*>(b->x), rig_.inertial[i].name,
               Eigen::VectorXd(static_cast<int>(b->free.size())), Checked::kImuIntrinsics};
     for (std::size_t k = 0; k < b->free.size(); ++k) c.prior_std[k] = b->prior_std[b->free[k]];
     c.imu = b;
