@@ -218,6 +218,60 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
             1e-5);
 }
 
+// Gauss-Newton's view of a factor at `blocks`: J^T J, J^T r (tangent Jacobians) and |r|^2.
+struct NormalEquations {
+  Eigen::MatrixXd H;
+  Eigen::VectorXd g;
+  double squares = 0.0;
+};
+
+NormalEquations normalEquations(const ceres::CostFunction& f,
+                                const std::vector<std::vector<double>>& blocks,
+                                const std::vector<const ceres::Manifold*>& manifolds) {
+  const std::vector<Eigen::MatrixXd> J = test::analyticTangentJacobians(f, blocks, manifolds);
+  int n = 0;
+  for (const auto& b : J) n += static_cast<int>(b.cols());
+  Eigen::MatrixXd stacked(f.num_residuals(), n);
+  n = 0;
+  for (const auto& b : J) {
+    stacked.middleCols(n, b.cols()) = b;
+    n += static_cast<int>(b.cols());
+  }
+  // The residuals of the same evaluation (a compressed factor's differ without Jacobians).
+  std::vector<const double*> params;
+  std::vector<test::RowMatrix> ambient;
+  std::vector<double*> jac;
+  for (const auto& b : blocks) {
+    params.push_back(b.data());
+    ambient.emplace_back(f.num_residuals(), static_cast<int>(b.size()));
+  }
+  for (auto& a : ambient) jac.push_back(a.data());
+  Eigen::VectorXd r(f.num_residuals());
+  EXPECT_TRUE(f.Evaluate(params.data(), r.data(), jac.data()));
+  return {stacked.transpose() * stacked, stacked.transpose() * r, r.squaredNorm()};
+}
+
+// A compressed factor (15 rows) has the plain one's J^T J, J^T r and cost, with and without
+// Jacobians; the bound is rounding relative to the largest entry (an error in a block's map or
+// the residual would be of the order of the entries).
+void expectCompressedKeepsTheNormalEquations(TagReprojectionFactor* plain,
+                                             TagReprojectionFactor* compressed,
+                                             const std::vector<std::vector<double>>& blocks,
+                                             const std::vector<const ceres::Manifold*>& manifolds) {
+  ASSERT_TRUE(compressed->compressRows());
+  EXPECT_EQ(compressed->num_residuals(), TagReprojectionFactor::kCompressedRows);
+  ASSERT_GT(plain->num_residuals(), 3 * TagReprojectionFactor::kCompressedRows);
+  const NormalEquations a = normalEquations(*plain, blocks, manifolds),
+                        b = normalEquations(*compressed, blocks, manifolds);
+  ASSERT_GT(a.squares, 1.0);
+  const double h = a.H.cwiseAbs().maxCoeff(), g = a.g.cwiseAbs().maxCoeff();
+  EXPECT_LT((a.H - b.H).cwiseAbs().maxCoeff(), 1e-10 * h);
+  EXPECT_LT((a.g - b.g).cwiseAbs().maxCoeff(), 1e-10 * g);
+  EXPECT_NEAR(a.squares, b.squares, 1e-10 * a.squares);
+  EXPECT_NEAR(a.squares, test::evaluateResiduals(*compressed, blocks).squaredNorm(),
+              1e-12 * a.squares);
+}
+
 // The per-corner Huber loss: corners within the threshold keep their residuals, the others
 // shrink to |r'|^2 = 2 c n - c^2 along the same direction, and the Jacobians match central
 // differences (the threshold between two corners' norms, so that no corner sits on the kink).
@@ -257,6 +311,10 @@ TEST(TagReprojectionFactor, CornerLossIsHuberPerCorner) {
   EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*robust, blocks, manifolds),
                                    test::numericTangentJacobians(*robust, blocks, manifolds, 1e-6)),
             1e-5);
+  // Compressed, with half the corners under the loss.
+  auto compressed = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+  compressed->useCornerLoss(c);
+  expectCompressedKeepsTheNormalEquations(robust.get(), compressed.get(), blocks, manifolds);
 }
 
 // The readings' noise over [t_k, t_a] as a block: at zero it changes nothing, a position noise
@@ -393,6 +451,11 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
   EXPECT_LT(test::jacobianMismatch(test::analyticTangentJacobians(*noisy, blocks, with_noise),
                                    test::numericTangentJacobians(*noisy, blocks, with_noise, 1e-6)),
             1e-5);
+  // Compressed: the intrinsics' and the noise's maps (the anchor's deltas' directions).
+  std::unique_ptr<TagReprojectionFactor> compressed(TagReprojectionFactor::imuPropagated(
+      s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
+  compressed->usePropagationNoise();
+  expectCompressedKeepsTheNormalEquations(noisy.get(), compressed.get(), blocks, with_noise);
 }
 
 void checkJacobians(TagReprojectionFactor::Interpolation mode) {
@@ -404,16 +467,20 @@ void checkJacobians(TagReprojectionFactor::Interpolation mode) {
   const TrajectoryState sk = s.trajectory.evaluate(t_k),
                         sk1 = s.trajectory.evaluate(t_k + interval);
   const Camera& cam = s.rig.cameras[c];
-  std::unique_ptr<TagReprojectionFactor> f;
+  const auto make = [&] {
+    return std::unique_ptr<TagReprojectionFactor>(
+        mode == TagReprojectionFactor::Interpolation::kKinematic
+            ? TagReprojectionFactor::kinematic(cam.distortion_model, corners, 0.5, t_c - t_k,
+                                               sk.w_I)
+            : TagReprojectionFactor::poseBased(cam.distortion_model, corners, 0.5, t_c - t_k,
+                                               interval));
+  };
+  std::unique_ptr<TagReprojectionFactor> f = make();
   std::vector<std::vector<double>> blocks;
   std::vector<double> sb = {0.1, -0.2, 0.05, 0.01, -0.02, 0.015, 0.1, 0.2, -0.1};
   if (mode == TagReprojectionFactor::Interpolation::kKinematic) {
-    f.reset(
-        TagReprojectionFactor::kinematic(cam.distortion_model, corners, 0.5, t_c - t_k, sk.w_I));
     blocks = {poseBlock(sk.T_G_I), sb, poseBlock(cam.T_cam_imu), {0.012}, intrinsicsBlock(cam)};
   } else {
-    f.reset(
-        TagReprojectionFactor::poseBased(cam.distortion_model, corners, 0.5, t_c - t_k, interval));
     blocks = {poseBlock(sk.T_G_I),
               poseBlock(sk1.T_G_I),
               poseBlock(cam.T_cam_imu),
@@ -429,6 +496,7 @@ void checkJacobians(TagReprojectionFactor::Interpolation mode) {
   // Residuals in sigma units up to ~1e2 (pixels / 0.5), Jacobians up to ~1e3 per radian:
   // central differences are good to ~1e-7 relative here.
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-5);
+  expectCompressedKeepsTheNormalEquations(f.get(), make().get(), blocks, manifolds);
 }
 
 TEST(TagReprojectionFactor, KinematicJacobiansMatchCentralDifferences) {

@@ -334,6 +334,11 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       factor->useLandmarkBlock();
       factor->shareCameraPose(shared);
       piece.blocks.push_back(landmark);
+    } else if (!options_.batch) {
+      // The window's solves, marginalization and covariances see the same normal equations
+      // from 15 rows as from every corner's two (tag_reprojection_factor.h); a batch keeps the
+      // corners' rows for its residual summary and clustered covariance.
+      factor->compressRows();
     }
     out.push_back(std::move(piece));
   }

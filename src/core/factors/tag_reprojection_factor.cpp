@@ -1,13 +1,14 @@
 #include "mvis/factors/tag_reprojection_factor.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <mutex>
 
+#include "../common/tangent_jet.h"
 #include "mvis/camera/camera_model.h"
 #include "mvis/common/lie.h"
 #include "mvis/factors/state_blocks.h"
-#include "../common/tangent_jet.h"
 
 namespace mvis {
 namespace {
@@ -112,15 +113,16 @@ TagReprojectionFactor::TagReprojectionFactor(Interpolation interpolation, Distor
   sizes->clear();
   for (const auto& b : layout_) sizes->push_back(b.ambient);
   sizes->push_back(8);
+  shared_ = makeSharedCameraPose();
 }
 
 struct TagReprojectionFactor::SharedCameraPose {
   std::mutex mutex;         // Ceres may evaluate residual blocks in parallel
-  std::vector<double> key;  // the parameter values it was computed at
+  std::vector<double> key;  // the parameter values it was computed at (but a landmark's)
   int dim = 0;
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  Eigen::MatrixXd dR[3], dT;
+  Eigen::MatrixXd G;  // the camera pose's tangent per jet direction (see evaluate)
 };
 
 std::shared_ptr<TagReprojectionFactor::SharedCameraPose>
@@ -139,6 +141,16 @@ void TagReprojectionFactor::usePropagationNoise() {
   sizes->push_back(kPropagationNoiseSize);
 }
 
+bool TagReprojectionFactor::compressRows() {
+  if (landmark_block_ >= 0 || compressed_ ||
+      2 * static_cast<int>(corners_.size()) <= kCompressedRows) {
+    return compressed_;
+  }
+  compressed_ = true;
+  set_num_residuals(kCompressedRows);
+  return true;
+}
+
 void TagReprojectionFactor::useLandmarkBlock() {
   auto* sizes = mutable_parameter_block_sizes();
   landmark_block_ = static_cast<int>(sizes->size());
@@ -147,35 +159,22 @@ void TagReprojectionFactor::useLandmarkBlock() {
 
 bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
-  const bool ok = interpolation_ == Interpolation::kImuPropagated &&
-                          (anchor_.with_intrinsics || noise_block_ >= 0)
-                      ? evaluate<kStageDim + 9>(parameters, residuals, jacobians)
-                      : evaluate<kStageDim>(parameters, residuals, jacobians);
-  if (ok && corner_loss_ > 0.0) robustifyCorners(residuals, jacobians);
-  return ok;
+  return interpolation_ == Interpolation::kImuPropagated &&
+                 (anchor_.with_intrinsics || noise_block_ >= 0)
+             ? evaluate<kStageDim + 9>(parameters, residuals, jacobians)
+             : evaluate<kStageDim>(parameters, residuals, jacobians);
 }
 
-void TagReprojectionFactor::robustifyCorners(double* residuals, double** jacobians) const {
+bool TagReprojectionFactor::cornerLoss(Eigen::Vector2d* r, Eigen::Matrix2d* M) const {
   const double c = corner_loss_;
-  const std::vector<int32_t>& sizes = parameter_block_sizes();
-  for (std::size_t k = 0; k < corners_.size(); ++k) {
-    double* r = residuals + 2 * k;
-    const double n = std::hypot(r[0], r[1]);
-    if (!(n > c)) continue;
-    const double g = std::sqrt(2.0 * c * n - c * c);  // sqrt(rho(n^2))
-    const Eigen::Vector2d u(r[0] / n, r[1] / n);
-    r[0] = g * u[0];
-    r[1] = g * u[1];
-    if (jacobians == nullptr) continue;
-    const Eigen::Matrix2d uu = u * u.transpose();
-    const Eigen::Matrix2d M = (c / g) * uu + (g / n) * (Eigen::Matrix2d::Identity() - uu);
-    for (std::size_t b = 0; b < sizes.size(); ++b) {
-      if (jacobians[b] == nullptr) continue;
-      Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>> rows(
-          jacobians[b] + 2 * k * sizes[b], 2, sizes[b]);
-      rows = (M * rows).eval();
-    }
-  }
+  const double n = r->norm();
+  if (!(c > 0.0) || !(n > c)) return false;
+  const double g = std::sqrt(2.0 * c * n - c * c);  // sqrt(rho(n^2))
+  const Eigen::Vector2d u = *r / n;
+  *r = g * u;
+  const Eigen::Matrix2d uu = u * u.transpose();
+  *M = (c / g) * uu + (g / n) * (Eigen::Matrix2d::Identity() - uu);
+  return true;
 }
 
 template <int Dim>
@@ -284,60 +283,98 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
           parameters[noise_block_]);
     }
   }
-  CameraPose<Dim> pose;
-  if (shared_ == nullptr) {
-    cameraPose<Dim>(parameters, lin, &pose);
-  } else {
-    // The frame's other tags share the pose: computed once per set of parameter values.
-    std::vector<double> key;
-    const int shared_blocks = landmark_block_;
-    for (int b = 0; b < shared_blocks; ++b) {
-      const double* x = parameters[b];
-      key.insert(key.end(), x, x + parameter_block_sizes()[b]);
-    }
+  // Stage 2: the camera pose's change in its own tangent [omega; v] (R_CG -> Exp(omega) R_CG,
+  // t_CG -> Exp(omega) t_CG + v) per jet direction: omega from dR R^T (skew), v = dt + t x omega.
+  // A corner then moves by dp_C = -[p_C]x omega + v, so that each corner needs only its 2 x 6
+  // projection Jacobian in that tangent, and each block the 6 x n map G_b below. Computed once
+  // per set of parameter values (Ceres evaluates the cost at a candidate, then the Jacobians
+  // there once it is taken; without a board a frame's tag factors share it).
+  Eigen::Matrix3d R_val;
+  Eigen::Vector3d t_val;
+  Eigen::Matrix<double, 6, Dim> G;
+  std::vector<double> key;
+  const std::vector<int32_t>& sizes = parameter_block_sizes();
+  for (int b = 0; b < static_cast<int>(sizes.size()); ++b) {
+    if (b != landmark_block_) key.insert(key.end(), parameters[b], parameters[b] + sizes[b]);
+  }
+  {
     std::lock_guard<std::mutex> lock(shared_->mutex);
     if (shared_->key != key || shared_->dim != Dim) {
+      CameraPose<Dim> pose;
       cameraPose<Dim>(parameters, lin, &pose);
+      R_val = pose.R;
+      t_val = pose.t;
+      for (int d = 0; d < Dim; ++d) {
+        Eigen::Matrix3d dR_d;
+        for (int j = 0; j < 3; ++j) dR_d.col(j) = pose.dR[j].col(d);
+        const Eigen::Matrix3d W = dR_d * R_val.transpose();
+        const Eigen::Vector3d w(0.5 * (W(2, 1) - W(1, 2)), 0.5 * (W(0, 2) - W(2, 0)),
+                                0.5 * (W(1, 0) - W(0, 1)));
+        G.template block<3, 1>(0, d) = w;
+        G.template block<3, 1>(3, d) = pose.dT.col(d) + t_val.cross(w);
+      }
       shared_->key = std::move(key);
       shared_->dim = Dim;
-      shared_->R = pose.R;
-      shared_->t = pose.t;
-      for (int j = 0; j < 3; ++j) shared_->dR[j] = pose.dR[j];
-      shared_->dT = pose.dT;
+      shared_->R = R_val;
+      shared_->t = t_val;
+      shared_->G = G;
     } else {
-      pose.R = shared_->R;
-      pose.t = shared_->t;
-      for (int j = 0; j < 3; ++j) pose.dR[j] = shared_->dR[j];
-      pose.dT = shared_->dT;
+      R_val = shared_->R;
+      t_val = shared_->t;
+      G = shared_->G;
     }
   }
 
-  // Stage 2: each corner. p_C = R_CG p_G + t_CG is linear in p_G, so its derivatives are
-  // D = dR_0 x + dR_1 y + dR_2 z + dt with dR_j the derivatives of R_CG's column j.
-  const Eigen::Matrix3d& R_val = pose.R;
-  const Eigen::Vector3d& t_val = pose.t;
-  const Eigen::Matrix<double, 3, Dim>(&dR)[3] = pose.dR;
-  const Eigen::Matrix<double, 3, Dim>& dT = pose.dT;
+  // The blocks' maps G_b (camera tangent per block tangent), but the camera intrinsics' and the
+  // landmark's, which enter per corner.
+  struct BlockMap {
+    int block, ambient;
+    Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kImuIntrinsicsSize> G;
+  };
+  std::vector<BlockMap> maps;
+  if (jacobians != nullptr) {
+    for (int b = 0; b < n_blocks; ++b) {
+      if (jacobians[b] == nullptr) continue;
+      const BlockLayout& l = layout_[b];
+      maps.push_back({b, l.ambient, G.middleCols(l.jet_offset, l.columns)});
+    }
+    if constexpr (Dim > kStageDim) {
+      // d(anchor rotation perturbation) / d(its change): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d),
+      // chained with the intrinsics' J_I.
+      const Eigen::Matrix3d right_jacobian = lie::rightJacobianSO3(lin.head<3>());
+      if (anchor_.with_intrinsics && jacobians[n_blocks + 1] != nullptr) {
+        maps.push_back(
+            {n_blocks + 1, kImuIntrinsicsSize,
+             G.template middleCols<3>(kDeltaJet) * right_jacobian *
+                     anchor_.J_intrinsics.topRows<3>() +
+                 G.template middleCols<6>(kDeltaJet + 3) * anchor_.J_intrinsics.bottomRows<6>()});
+      }
+      if (noise_block_ >= 0 && jacobians[noise_block_] != nullptr) {
+        Eigen::Matrix<double, 6, kPropagationNoiseSize> G_n;
+        G_n << G.template middleCols<3>(kDeltaJet) * right_jacobian,
+            G.template middleCols<6>(kDeltaJet + 3);
+        maps.push_back({noise_block_, kPropagationNoiseSize, G_n});
+      }
+    }
+  }
+  double* J_intrinsics = jacobians != nullptr ? jacobians[n_blocks] : nullptr;
   const double* intrinsics = parameters[n_blocks];
   const double inv_sigma = 1.0 / sigma_;
-  // d(anchor rotation perturbation) / d(its change): Exp(phi + d) = Exp(phi) Exp(Jr(phi) d),
-  // chained with the intrinsics' J_I.
-  Eigen::Matrix3d right_jacobian = Eigen::Matrix3d::Identity();
-  Eigen::Matrix<double, 3, kImuIntrinsicsSize> rotation_chain;
-  if constexpr (Dim > kStageDim) {
-    right_jacobian = lie::rightJacobianSO3(lin.head<3>());
-    rotation_chain = right_jacobian * anchor_.J_intrinsics.topRows<3>();
-  }
-  double* J_noise = noise_block_ >= 0 && jacobians != nullptr ? jacobians[noise_block_] : nullptr;
-  Eigen::Vector2d uv;
-  Eigen::Matrix<double, 2, 3> J_pc;
-  Eigen::Matrix<double, 2, 8> J_k;
   const double* landmark = landmark_block_ >= 0 ? parameters[landmark_block_] : nullptr;
   double* J_landmark =
       landmark != nullptr && jacobians != nullptr ? jacobians[landmark_block_] : nullptr;
   if (J_landmark != nullptr) {
     std::fill(J_landmark, J_landmark + num_residuals() * kTagLandmarkSize, 0.0);
   }
+  // Compressed: the corners' rows [J_6 J_k r] (whitened, after the loss), for the normal
+  // equations at the end.
+  Eigen::Matrix<double, Eigen::Dynamic, kCompressedColumns + 1> A;
+  if (compressed_ && jacobians != nullptr)
+    A.resize(2 * static_cast<Eigen::Index>(corners_.size()), kCompressedColumns + 1);
+  double squares = 0.0;
+  Eigen::Vector2d uv;
+  Eigen::Matrix<double, 2, 3> J_pc;
+  Eigen::Matrix<double, 2, 8> J_k;
   for (std::size_t c = 0; c < corners_.size(); ++c) {
     const Eigen::Vector3d p_G = landmark != nullptr
                                     ? Eigen::Vector3d(landmark + 3 * corners_[c].landmark)
@@ -345,48 +382,85 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
     const Eigen::Vector3d pc = R_val * p_G + t_val;
     if (!(pc[2] > 1e-6)) return false;  // behind the camera: Ceres rejects the step
     projectWithJacobians(model_, intrinsics, pc, &uv, &J_pc, &J_k);
+    Eigen::Vector2d r = (uv - corners_[c].uv) * inv_sigma;
+    Eigen::Matrix2d M = Eigen::Matrix2d::Identity();
+    const bool robust = cornerLoss(&r, &M);
+    squares += r.squaredNorm();
     const int row = 2 * static_cast<int>(c);
-    for (int i = 0; i < 2; ++i) residuals[row + i] = (uv[i] - corners_[c].uv[i]) * inv_sigma;
+    if (!compressed_) residuals[row] = r[0], residuals[row + 1] = r[1];
     if (jacobians == nullptr) continue;
 
-    const Eigen::Matrix<double, 3, Dim> D =
-        dR[0] * p_G.x() + dR[1] * p_G.y() + dR[2] * p_G.z() + dT;
-    const Eigen::Matrix<double, 2, Dim> J = (J_pc * inv_sigma) * D;
+    Eigen::Matrix<double, 2, kCompressedColumns> J;  // [J_6 (camera tangent), J_k (intrinsics)]
+    const Eigen::Matrix<double, 2, 3> J_w =
+        robust ? (M * J_pc * inv_sigma).eval() : (J_pc * inv_sigma).eval();
+    J.template leftCols<3>() = J_w * lie::hat(pc).transpose();
+    J.template middleCols<3>(3) = J_w;
+    J.template rightCols<8>() = robust ? (M * J_k * inv_sigma).eval() : (J_k * inv_sigma).eval();
+    if (compressed_) {
+      A.template block<2, kCompressedColumns>(row, 0) = J;
+      A.template block<2, 1>(row, kCompressedColumns) = r;
+      continue;
+    }
+    for (const BlockMap& m : maps) {
+      Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>> out(
+          jacobians[m.block] + m.ambient * row, 2, m.ambient);
+      out.leftCols(m.G.cols()) = J.template leftCols<6>().lazyProduct(m.G);
+      out.rightCols(m.ambient - m.G.cols()).setZero();
+    }
+    if (J_intrinsics != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 8, Eigen::RowMajor>>(J_intrinsics + 8 * row) =
+          J.template rightCols<8>();
+    }
     if (J_landmark != nullptr) {
-      const Eigen::Matrix<double, 2, 3> J_p = (J_pc * inv_sigma) * R_val;
+      const Eigen::Matrix<double, 2, 3> J_p = J_w * R_val;
       for (int i = 0; i < 2; ++i) {
         double* out = J_landmark + kTagLandmarkSize * (row + i) + 3 * corners_[c].landmark;
         for (int j = 0; j < 3; ++j) out[j] = J_p(i, j);
       }
     }
-    for (int i = 0; i < 2; ++i) {
-      const int r = row + i;
-      for (int b = 0; b < n_blocks; ++b) {
-        if (jacobians[b] == nullptr) continue;
-        const BlockLayout& l = layout_[b];
-        double* out = jacobians[b] + l.ambient * r;
-        for (int j = 0; j < l.columns; ++j) out[j] = J(i, l.jet_offset + j);
-        for (int j = l.columns; j < l.ambient; ++j) out[j] = 0.0;
-      }
-      if (jacobians[n_blocks] != nullptr) {
-        double* out = jacobians[n_blocks] + 8 * r;
-        for (int j = 0; j < 8; ++j) out[j] = J_k(i, j) * inv_sigma;
-      }
-      if constexpr (Dim > kStageDim) {
-        if (J_noise != nullptr) {
-          Eigen::Map<Eigen::Matrix<double, 1, kPropagationNoiseSize>> out(
-              J_noise + kPropagationNoiseSize * r);
-          out.head<3>() = J.row(i).template segment<3>(kDeltaJet) * right_jacobian;
-          out.tail<6>() = J.row(i).template segment<6>(kDeltaJet + 3);
-        }
-        if (anchor_.with_intrinsics && jacobians[n_blocks + 1] != nullptr) {
-          Eigen::Map<Eigen::Matrix<double, 1, kImuIntrinsicsSize>> out(jacobians[n_blocks + 1] +
-                                                                       kImuIntrinsicsSize * r);
-          out = J.row(i).template segment<3>(kDeltaJet) * rotation_chain +
-                J.row(i).template segment<6>(kDeltaJet + 3) * anchor_.J_intrinsics.bottomRows<6>();
-        }
-      }
-    }
+  }
+  if (!compressed_) return true;
+  // Compressed rows (see the header): H = P^T L D L^T P, rows S = D^1/2 L^T P, residuals
+  // e = D^-1/2 L^-1 P g (S^T e = g), and one more row holding the rest of the squares.
+  std::fill(residuals, residuals + kCompressedRows, 0.0);
+  if (jacobians == nullptr) {
+    residuals[0] = std::sqrt(squares);
+    return true;
+  }
+  Eigen::Matrix<double, kCompressedColumns + 1, kCompressedColumns + 1> N;
+  N.setZero();
+  N.selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
+  const Eigen::Matrix<double, kCompressedColumns, kCompressedColumns> H =
+      N.topLeftCorner<kCompressedColumns, kCompressedColumns>().selfadjointView<Eigen::Lower>();
+  const Eigen::Matrix<double, kCompressedColumns, 1> g =
+      N.bottomLeftCorner<1, kCompressedColumns>().transpose();
+  const Eigen::LDLT<Eigen::Matrix<double, kCompressedColumns, kCompressedColumns>> ldlt(H);
+  Eigen::Matrix<double, kCompressedColumns, kCompressedColumns> S =
+      Eigen::Matrix<double, kCompressedColumns, kCompressedColumns>::Identity();
+  S = ldlt.transpositionsP() * S;  // P
+  Eigen::Matrix<double, kCompressedColumns, 1> e = ldlt.matrixL().solve(S * g);
+  S = ldlt.matrixU() * S;  // L^T P
+  const auto D = ldlt.vectorD();
+  const double floor = 1e-12 * std::max(D.maxCoeff(), 0.0);
+  double explained = 0.0;
+  for (int k = 0; k < kCompressedColumns; ++k) {
+    const double d = D[k] > floor ? std::sqrt(D[k]) : 0.0;
+    S.row(k) *= d;
+    e[k] = d > 0.0 ? e[k] / d : 0.0;
+    residuals[k] = e[k];
+    explained += e[k] * e[k];
+  }
+  residuals[kCompressedColumns] = std::sqrt(std::max(squares - explained, 0.0));
+  for (const BlockMap& m : maps) {
+    Eigen::Map<Eigen::Matrix<double, kCompressedRows, Eigen::Dynamic, Eigen::RowMajor>> out(
+        jacobians[m.block], kCompressedRows, m.ambient);
+    out.setZero();
+    out.topLeftCorner(kCompressedColumns, m.G.cols()) = S.template leftCols<6>().lazyProduct(m.G);
+  }
+  if (J_intrinsics != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, kCompressedRows, 8, Eigen::RowMajor>> out(J_intrinsics);
+    out.setZero();
+    out.template topRows<kCompressedColumns>() = S.template rightCols<8>();
   }
   return true;
 }
