@@ -32,7 +32,8 @@
 // aux_j [9 or 6], extrinsic T_A_I [7], time_offset [1], gravity [3] (state_blocks.h), and with
 // its intrinsics estimated the aux IMU's intrinsics block [24] (imu_reintegration.h).
 // Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces (tangent
-// lift convention of state_blocks.h).
+// lift convention of state_blocks.h) of the unwhitened residual, whitened after (whitening.h);
+// the deltas' first-order correction on values and derivatives apart.
 #pragma once
 
 #include <ceres/cost_function.h>

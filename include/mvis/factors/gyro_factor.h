@@ -20,7 +20,8 @@
 // the gyroscope, aux_sensors.h; the rotation of the kalibr model is held, being the
 // extrinsic's). A gyroscope's translation does not enter: it is not calibrated
 // (report Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent
-// spaces (tangent lift convention of state_blocks.h).
+// spaces (tangent lift convention of state_blocks.h) of the unwhitened residual, whitened after
+// (whitening.h); the deltas' first-order correction on values and derivatives apart.
 #pragma once
 
 #include <ceres/cost_function.h>

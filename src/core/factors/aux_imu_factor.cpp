@@ -147,7 +147,7 @@ void AuxImuFactor::residual(double const* const* parameters, const ImuDeltas& d,
   r.template segment<3>(P::kBiasGyro) = abg_j - abg_i;
   r.template segment<3>(P::kBiasAccel) =
       perturbVector<T>(parameters[5] + bias_at + 3, 33 + a + bias_at) - aba_i;
-  Eigen::Map<Eigen::Matrix<T, 15, 1>>{out} = sqrt_information_.cast<T>() * r;
+  Eigen::Map<Eigen::Matrix<T, 15, 1>>{out} = r;  // whitened in Evaluate
 }
 
 bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
@@ -161,17 +161,16 @@ bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
                     frame_, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
-    return true;
-  }
-  if (intrinsics_) {
+  } else if (intrinsics_) {
     IntrinsicsJet r[15];
     residual<IntrinsicsJet>(parameters, *d, r);
     tangent_jet::writeJacobians(r, 15, layoutOf(model_, true), residuals, jacobians);
-    return true;
+  } else {
+    Jet r[15];
+    residual<Jet>(parameters, *d, r);
+    tangent_jet::writeJacobians(r, 15, layoutOf(model_, false), residuals, jacobians);
   }
-  Jet r[15];
-  residual<Jet>(parameters, *d, r);
-  tangent_jet::writeJacobians(r, 15, layoutOf(model_, false), residuals, jacobians);
+  whiten<15>(sqrt_information_, parameter_block_sizes(), residuals, jacobians);
   return true;
 }
 

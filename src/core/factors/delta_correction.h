@@ -5,6 +5,8 @@
 //   dR(x) = dR Exp(J_theta (x - x0)),  dp(x) = dp + J_p (x - x0),  dv(x) = dv + J_v (x - x0).
 #pragma once
 
+#include <type_traits>
+
 #include "mvis/inertial/imu_reintegration.h"
 #include "../common/tangent_jet.h"
 
@@ -20,9 +22,25 @@ struct CorrectedDeltas {
 template <typename T>
 CorrectedDeltas<T> correctDeltas(const ImuDeltas& d,
                                  const Eigen::Matrix<T, kDeltaVariables, 1>& x) {
-  Eigen::Matrix<T, kDeltaVariables, 1> dx = x;
-  for (int i = 0; i < kDeltaVariables; ++i) dx[i] -= T(d.x0[i]);
-  const Eigen::Matrix<T, 9, 1> lin = d.J.cast<T>() * dx;
+  Eigen::Matrix<T, 9, 1> lin;
+  if constexpr (std::is_same_v<T, double>) {
+    lin = d.J * (x - d.x0);
+  } else {
+    // Values and derivatives apart, as doubles: J (x - x0) and J dx/d(directions).
+    constexpr int kDirections = decltype(T::v)::RowsAtCompileTime;
+    Eigen::Matrix<double, kDeltaVariables, 1> a;
+    Eigen::Matrix<double, kDeltaVariables, kDirections> V;
+    for (int i = 0; i < kDeltaVariables; ++i) {
+      a[i] = x[i].a - d.x0[i];
+      V.row(i) = x[i].v.transpose();
+    }
+    const Eigen::Matrix<double, 9, 1> la = d.J * a;
+    const Eigen::Matrix<double, 9, kDirections> lv = d.J * V;
+    for (int i = 0; i < 9; ++i) {
+      lin[i].a = la[i];
+      lin[i].v = lv.row(i).transpose();
+    }
+  }
   CorrectedDeltas<T> out;
   out.dR = d.dR.cast<T>() * tangent_jet::expT<T>(lin.template head<3>());
   out.dp = d.dp.cast<T>() + lin.template segment<3>(3);

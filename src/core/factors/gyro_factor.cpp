@@ -107,7 +107,7 @@ void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T
   Eigen::Matrix<T, 6, 1> r;
   r.template head<3>() = tangent_jet::logT<T>(Mat3<T>(dR.transpose() * RA_i.transpose() * RA_j));
   r.template tail<3>() = abg_j - abg_i;
-  Eigen::Map<Eigen::Matrix<T, 6, 1>>{out} = sqrt_information_.cast<T>() * r;
+  Eigen::Map<Eigen::Matrix<T, 6, 1>>{out} = r;  // whitened in Evaluate
 }
 
 bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
@@ -119,18 +119,17 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
                     frame_, jacobians != nullptr, &local);
   if (jacobians == nullptr) {
     residual<double>(parameters, *d, residuals);
-    return true;
-  }
-  if (intrinsics_) {
+  } else if (intrinsics_) {
     IntrinsicsJet r[6];
     residual<IntrinsicsJet>(parameters, *d, r);
     tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
     if (jacobians[8] != nullptr) writeIntrinsicsJacobian(r, jacobians[8]);
-    return true;
+  } else {
+    Jet r[6];
+    residual<Jet>(parameters, *d, r);
+    tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
   }
-  Jet r[6];
-  residual<Jet>(parameters, *d, r);
-  tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
+  whiten<6>(sqrt_information_, parameter_block_sizes(), residuals, jacobians);
   return true;
 }
 
