@@ -231,6 +231,23 @@ TEST(Marginalization, MatchesDenseSchurComplement) {
       test::jacobianMismatch(test::analyticTangentJacobians(prior, kept, kept_manifolds),
                              test::numericTangentJacobians(prior, kept, kept_manifolds, 1e-6)),
       1e-5);
+
+  // With gravity held constant for the run (setFixed) it is left out, conditioned on: the prior
+  // spans the second state only, and is the dense Schur complement's block on it.
+  Marginalizer without_gravity = smallMarginalizer(&s, pose, sphere);
+  without_gravity.setFixed(ptr(4));
+  auto conditioned = without_gravity.marginalize({ptr(0), ptr(1)});
+  ASSERT_TRUE(conditioned.ok()) << conditioned.status().message();
+  const MarginalizationFactor& on_state = *conditioned.value();
+  ASSERT_EQ(on_state.parameterBlocks(), (std::vector<double*>{ptr(2), ptr(3)}));
+  const Eigen::MatrixXd H_state = on_state.J0().transpose() * on_state.J0();
+  const Eigen::VectorXd g_state = on_state.J0().transpose() * on_state.r0();
+  const Eigen::VectorXd d_state = inv_sqrt_d.head(15);
+  EXPECT_LT((d_state.asDiagonal() * (H_state - Hs.topLeftCorner(15, 15)) * d_state.asDiagonal())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-10);
+  EXPECT_LT((d_state.asDiagonal() * (g_state - gs.head(15))).cwiseAbs().maxCoeff(), 1e-10);
 }
 
 // With priors on the kept blocks too, the Schur complement is positive definite: the prior comes

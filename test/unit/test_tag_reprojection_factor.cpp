@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 
 #include "factor_test_util.h"
 #include "mvis/camera/camera_model.h"
@@ -218,7 +219,8 @@ TEST(TagReprojectionFactor, ImuPropagatedJacobiansMatchCentralDifferences) {
             1e-5);
 }
 
-// Gauss-Newton's view of a factor at `blocks`: J^T J, J^T r (tangent Jacobians) and |r|^2.
+// Gauss-Newton's view of a factor at `blocks`: J^T J, J^T r (tangent Jacobians of every block
+// but `skip`) and |r|^2.
 struct NormalEquations {
   Eigen::MatrixXd H;
   Eigen::VectorXd g;
@@ -227,49 +229,81 @@ struct NormalEquations {
 
 NormalEquations normalEquations(const ceres::CostFunction& f,
                                 const std::vector<std::vector<double>>& blocks,
-                                const std::vector<const ceres::Manifold*>& manifolds) {
-  const std::vector<Eigen::MatrixXd> J = test::analyticTangentJacobians(f, blocks, manifolds);
-  int n = 0;
-  for (const auto& b : J) n += static_cast<int>(b.cols());
-  Eigen::MatrixXd stacked(f.num_residuals(), n);
-  n = 0;
-  for (const auto& b : J) {
-    stacked.middleCols(n, b.cols()) = b;
-    n += static_cast<int>(b.cols());
-  }
-  // The residuals of the same evaluation (a compressed factor's differ without Jacobians).
+                                const std::vector<const ceres::Manifold*>& manifolds,
+                                int skip = -1) {
+  const int rows = f.num_residuals();
   std::vector<const double*> params;
   std::vector<test::RowMatrix> ambient;
   std::vector<double*> jac;
   for (const auto& b : blocks) {
     params.push_back(b.data());
-    ambient.emplace_back(f.num_residuals(), static_cast<int>(b.size()));
+    ambient.emplace_back(rows, static_cast<int>(b.size()));
   }
-  for (auto& a : ambient) jac.push_back(a.data());
-  Eigen::VectorXd r(f.num_residuals());
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    jac.push_back(static_cast<int>(i) == skip ? nullptr : ambient[i].data());
+  }
+  Eigen::VectorXd r(rows);
   EXPECT_TRUE(f.Evaluate(params.data(), r.data(), jac.data()));
+  std::vector<Eigen::MatrixXd> J;
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    if (static_cast<int>(i) == skip) continue;
+    if (manifolds[i] == nullptr) {
+      J.emplace_back(ambient[i]);
+      continue;
+    }
+    test::RowMatrix plus(manifolds[i]->AmbientSize(), manifolds[i]->TangentSize());
+    manifolds[i]->PlusJacobian(blocks[i].data(), plus.data());
+    J.emplace_back(ambient[i] * plus);
+  }
+  int n = 0;
+  for (const auto& b : J) n += static_cast<int>(b.cols());
+  Eigen::MatrixXd stacked(rows, n);
+  n = 0;
+  for (const auto& b : J) {
+    stacked.middleCols(n, b.cols()) = b;
+    n += static_cast<int>(b.cols());
+  }
   return {stacked.transpose() * stacked, stacked.transpose() * r, r.squaredNorm()};
 }
 
-// A compressed factor (15 rows) has the plain one's J^T J, J^T r and cost, with and without
-// Jacobians; the bound is rounding relative to the largest entry (an error in a block's map or
-// the residual would be of the order of the entries).
-void expectCompressedKeepsTheNormalEquations(TagReprojectionFactor* plain,
-                                             TagReprojectionFactor* compressed,
-                                             const std::vector<std::vector<double>>& blocks,
-                                             const std::vector<const ceres::Manifold*>& manifolds) {
-  ASSERT_TRUE(compressed->compressRows());
-  EXPECT_EQ(compressed->num_residuals(), TagReprojectionFactor::kCompressedRows);
-  ASSERT_GT(plain->num_residuals(), 3 * TagReprojectionFactor::kCompressedRows);
-  const NormalEquations a = normalEquations(*plain, blocks, manifolds),
-                        b = normalEquations(*compressed, blocks, manifolds);
-  ASSERT_GT(a.squares, 1.0);
-  const double h = a.H.cwiseAbs().maxCoeff(), g = a.g.cwiseAbs().maxCoeff();
-  EXPECT_LT((a.H - b.H).cwiseAbs().maxCoeff(), 1e-10 * h);
-  EXPECT_LT((a.g - b.g).cwiseAbs().maxCoeff(), 1e-10 * g);
-  EXPECT_NEAR(a.squares, b.squares, 1e-10 * a.squares);
-  EXPECT_NEAR(a.squares, test::evaluateResiduals(*compressed, blocks).squaredNorm(),
-              1e-12 * a.squares);
+// A compressed factor (15 rows, or 7 without the camera intrinsics: block `intrinsics` left
+// out) has the plain one's J^T J, J^T r and cost, with and without Jacobians; the bound is
+// rounding relative to the largest entry (an error in a block's map or the residual would be of
+// the order of the entries).
+void expectCompressedKeepsTheNormalEquations(
+    const std::function<std::unique_ptr<TagReprojectionFactor>()>& make,
+    const std::vector<std::vector<double>>& blocks,
+    const std::vector<const ceres::Manifold*>& manifolds, int intrinsics) {
+  const auto plain = make();
+  ASSERT_GT(plain->num_residuals(), 3 * TagReprojectionFactor::kMaxCompressedRows);
+  for (const bool with_intrinsics : {true, false}) {
+    const auto compressed = make();
+    ASSERT_TRUE(compressed->compressRows(with_intrinsics));
+    EXPECT_EQ(compressed->num_residuals(), with_intrinsics ? 15 : 7);
+    const int skip = with_intrinsics ? -1 : intrinsics;
+    const NormalEquations a = normalEquations(*plain, blocks, manifolds, skip),
+                          b = normalEquations(*compressed, blocks, manifolds, skip);
+    ASSERT_GT(a.squares, 1.0);
+    const double h = a.H.cwiseAbs().maxCoeff(), g = a.g.cwiseAbs().maxCoeff();
+    EXPECT_LT((a.H - b.H).cwiseAbs().maxCoeff(), 1e-10 * h) << with_intrinsics;
+    EXPECT_LT((a.g - b.g).cwiseAbs().maxCoeff(), 1e-10 * g) << with_intrinsics;
+    EXPECT_NEAR(a.squares, b.squares, 1e-10 * a.squares);
+    EXPECT_NEAR(a.squares, test::evaluateResiduals(*compressed, blocks).squaredNorm(),
+                1e-12 * a.squares);
+  }
+  // Without the intrinsics, asking for their Jacobian fails rather than giving a wrong one.
+  const auto compressed = make();
+  compressed->compressRows(false);
+  std::vector<const double*> params;
+  std::vector<test::RowMatrix> ambient;
+  std::vector<double*> jac;
+  for (const auto& b : blocks) {
+    params.push_back(b.data());
+    ambient.emplace_back(7, static_cast<int>(b.size()));
+  }
+  for (auto& a : ambient) jac.push_back(a.data());
+  Eigen::VectorXd r(7);
+  EXPECT_FALSE(compressed->Evaluate(params.data(), r.data(), jac.data()));
 }
 
 // The per-corner Huber loss: corners within the threshold keep their residuals, the others
@@ -312,9 +346,13 @@ TEST(TagReprojectionFactor, CornerLossIsHuberPerCorner) {
                                    test::numericTangentJacobians(*robust, blocks, manifolds, 1e-6)),
             1e-5);
   // Compressed, with half the corners under the loss.
-  auto compressed = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
-  compressed->useCornerLoss(c);
-  expectCompressedKeepsTheNormalEquations(robust.get(), compressed.get(), blocks, manifolds);
+  expectCompressedKeepsTheNormalEquations(
+      [&] {
+        auto f = imuPropagatedFactor(s, 2, t_k, t_c, t_a, bg, ba);
+        f->useCornerLoss(c);
+        return f;
+      },
+      blocks, manifolds, 5);
 }
 
 // The readings' noise over [t_k, t_a] as a block: at zero it changes nothing, a position noise
@@ -452,10 +490,14 @@ TEST(TagReprojectionFactor, ImuPropagatedWithImuIntrinsics) {
                                    test::numericTangentJacobians(*noisy, blocks, with_noise, 1e-6)),
             1e-5);
   // Compressed: the intrinsics' and the noise's maps (the anchor's deltas' directions).
-  std::unique_ptr<TagReprojectionFactor> compressed(TagReprojectionFactor::imuPropagated(
-      s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
-  compressed->usePropagationNoise();
-  expectCompressedKeepsTheNormalEquations(noisy.get(), compressed.get(), blocks, with_noise);
+  expectCompressedKeepsTheNormalEquations(
+      [&] {
+        std::unique_ptr<TagReprojectionFactor> f(TagReprojectionFactor::imuPropagated(
+            s.rig.cameras[2].distortion_model, observe(s, 2, t_c), 0.5, anchor));
+        f->usePropagationNoise();
+        return f;
+      },
+      blocks, with_noise, 5);
 }
 
 void checkJacobians(TagReprojectionFactor::Interpolation mode) {
@@ -496,7 +538,7 @@ void checkJacobians(TagReprojectionFactor::Interpolation mode) {
   // Residuals in sigma units up to ~1e2 (pixels / 0.5), Jacobians up to ~1e3 per radian:
   // central differences are good to ~1e-7 relative here.
   EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-5);
-  expectCompressedKeepsTheNormalEquations(f.get(), make().get(), blocks, manifolds);
+  expectCompressedKeepsTheNormalEquations(make, blocks, manifolds, 4);
 }
 
 TEST(TagReprojectionFactor, KinematicJacobiansMatchCentralDifferences) {

@@ -67,6 +67,11 @@ class Marginalizer {
   // and optionally the variance each keeps (see above; empty: unknown, marginalized as such).
   void setUninformative(const double* block, Eigen::MatrixXd directions,
                         Eigen::VectorXd variance = Eigen::VectorXd());
+  // A block held constant for the whole run (Ceres never varies it): left out, i.e. conditioned
+  // on. The kept blocks' information is the same as with it kept and its rows and columns
+  // dropped from the result (the Schur complement's [kept, kept] block does not depend on
+  // whether a constant block was carried along); its Jacobian is never asked for.
+  void setFixed(const double* block) { fixed_.insert(block); }
   // A residual block touching at least one dropped block. Neither pointer is owned; both are
   // only used inside marginalize().
   void addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
@@ -108,6 +113,7 @@ class Marginalizer {
   std::map<const double*, const ceres::Manifold*> manifolds_;
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Eigen::VectorXd> kept_variance_;
+  std::set<const double*> fixed_;
 };
 
 class MarginalizationFactor final : public ceres::CostFunction {

@@ -57,12 +57,13 @@
 // are all functions of these), and the marginalization and covariances only J^T J and J^T r.
 // Every corner moves with the camera pose's tangent [omega; v] (R_C_G -> Exp(omega) R_C_G, t_C_G
 // -> Exp(omega) t_C_G + v: dp_C = -[p_C]x omega + v) and the camera's intrinsics, so J = Z G
-// with Z = [J_6 J_k] (2N x 14, the per-corner loss applied) and G the fixed map from the blocks'
-// tangents to those 14 columns. With H = Z^T Z = P^T L D L^T P (pivoted LDL^T) and g = Z^T r:
+// with Z = [J_6 J_k] (2N x 14, the per-corner loss applied; 2N x 6 without J_k when the
+// intrinsics are not estimated) and G the fixed map from the blocks' tangents to those columns.
+// With H = Z^T Z = P^T L D L^T P (pivoted LDL^T) and g = Z^T r:
 //   rows  S G,  S = D^1/2 L^T P      (S^T S = H)
 //   residuals  e = D^-1/2 L^-1 P g   (S^T e = g; pivots under 1e-12 of the largest: 0)
 //   and one more residual sqrt(|r|^2 - |e|^2) with zero Jacobian,
-// 15 rows in place of 2N (~100-300 on the VI-Rig) with the same J^T J, J^T r and cost, to
+// 15 (7) rows in place of 2N (~100-300 on the VI-Rig) with the same J^T J, J^T r and cost, to
 // rounding. Without Jacobians only the cost is needed: [|r|, 0, ...]. A compressed factor's
 // residuals are not per corner (the batch's residual summary and clustered covariance, and the
 // frame gate, evaluate factors that are not compressed).
@@ -180,11 +181,13 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // Huber loss on each corner's whitened residual at `threshold` sigmas (see the header).
   void useCornerLoss(double threshold) { corner_loss_ = threshold; }
 
-  // Compressed rows (see the header): only without a landmark block and with more than
-  // kCompressedRows / 2 corners; returns whether the factor is compressed. Call last.
-  bool compressRows();
-  bool compressed() const { return compressed_; }
-  static constexpr int kCompressedRows = 15;
+  // Compressed rows (see the header): only without a landmark block and with more corners than
+  // half the compressed rows; returns whether the factor is compressed. Without
+  // `with_intrinsics` the intrinsics block must stay constant (7 rows instead of 15; a request
+  // for its Jacobian fails the evaluation). Call last.
+  bool compressRows(bool with_intrinsics);
+  bool compressed() const { return compressed_columns_ > 0; }
+  static constexpr int kMaxCompressedRows = 15;
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -204,7 +207,7 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // Jacobian rows M J (see the header); false (nothing changed) within it.
   bool cornerLoss(Eigen::Vector2d* r, Eigen::Matrix2d* M) const;
   // Columns of the compressed rows: the camera pose's tangent (6) and the intrinsics (8).
-  static constexpr int kCompressedColumns = 14;
+  static constexpr int kPoseColumns = 6;
   // The camera pose R_C_G, t_C_G at the frame and their derivatives in Dim jet directions.
   template <int Dim>
   struct CameraPose {
@@ -221,10 +224,10 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   };
   std::vector<BlockLayout> layout_;
   ImuAnchor anchor_;
-  int landmark_block_ = -1;   // index of the landmark block, -1 without
-  int noise_block_ = -1;      // index of the propagation-noise block, -1 without
-  double corner_loss_ = 0.0;  // Huber threshold per corner [sigma], 0: plain squares
-  bool compressed_ = false;   // compressRows()
+  int landmark_block_ = -1;     // index of the landmark block, -1 without
+  int noise_block_ = -1;        // index of the propagation-noise block, -1 without
+  double corner_loss_ = 0.0;    // Huber threshold per corner [sigma], 0: plain squares
+  int compressed_columns_ = 0;  // compressRows(): 6, 14, or 0 (not compressed)
   std::shared_ptr<SharedCameraPose> shared_;
 
   Interpolation interpolation_;

@@ -84,6 +84,11 @@ CalibrationBlocks::CalibrationBlocks(const Rig& rig, const EstimatorOptions& opt
 
 void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration& trusted) {
   const EstimatorOptions& o = options_;
+  fixed_.clear();
+  const auto fix = [&](double* block) {
+    problem->SetParameterBlockConstant(block);
+    fixed_.insert(block);
+  };
   problem->AddParameterBlock(gravity_, kGravitySize, &sphere_manifold_);
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     CameraBlocks& b = *cameras_[c];
@@ -93,12 +98,12 @@ void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration&
     const std::string& name = rig_.cameras[c].name;
     const bool intrinsics = o.estimate_intrinsics && !heldByOption(o, name, "intrinsics");
     if (!o.estimate_extrinsics || heldByOption(o, name, "extrinsic")) {
-      problem->SetParameterBlockConstant(b.extrinsic);
+      fix(b.extrinsic);
     }
     if (!o.estimate_time_offsets || heldByOption(o, name, "time_offset")) {
-      problem->SetParameterBlockConstant(b.time_offset);
+      fix(b.time_offset);
     }
-    if (!intrinsics) problem->SetParameterBlockConstant(b.intrinsics);
+    if (!intrinsics) fix(b.intrinsics);
     // Priors from the configuration's *_std keys, or the options' defaults.
     const auto& sd = rig_.cameras[c].std;
     b.prior = calibrationPrior(o.extrinsic_rotation_prior_rad, o.extrinsic_translation_prior_m,
@@ -137,10 +142,10 @@ void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration&
     }
     problem->AddParameterBlock(a.time_offset, 1);
     if (!o.estimate_aux_extrinsics || heldByOption(o, config.name, "extrinsic")) {
-      problem->SetParameterBlockConstant(a.extrinsicBlock());
+      fix(a.extrinsicBlock());
     }
     if (!o.estimate_aux_time_offsets || heldByOption(o, config.name, "time_offset")) {
-      problem->SetParameterBlockConstant(a.time_offset);
+      fix(a.time_offset);
     }
     const auto& sd = config.std;
     a.prior = calibrationPrior(o.aux_rotation_prior_rad, o.aux_translation_prior_m,

@@ -14,6 +14,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,8 @@ class CalibrationBlocks {
   // Every block with its name and values, for the trusted calibration; estimated where it is
   // variable in `problem` (none when null).
   std::vector<TrustedCalibration::Block> trustedBlocks(const ceres::Problem* problem);
+  // The blocks addTo made constant for the whole run (held by the options).
+  const std::set<const double*>& fixedBlocks() const { return fixed_; }
 
   std::size_t cameras() const { return cameras_.size(); }
   CameraBlocks& camera(std::size_t c) { return *cameras_[c]; }
@@ -112,6 +115,7 @@ class CalibrationBlocks {
   const EstimatorOptions& options_;
   std::vector<std::unique_ptr<CameraBlocks>> cameras_;
   std::vector<std::unique_ptr<AuxCalibration>> aux_;  // index sensor - 1
+  std::set<const double*> fixed_;                     // fixedBlocks()
   double gravity_[kGravitySize] = {0.0, 0.0, -9.81};
   std::optional<std::vector<CameraCalibrationStd>> camera_std_;
   PoseManifold pose_manifold_;

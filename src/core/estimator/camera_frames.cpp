@@ -338,7 +338,7 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       // The window's solves, marginalization and covariances see the same normal equations
       // from 15 rows as from every corner's two (tag_reprojection_factor.h); a batch keeps the
       // corners' rows for its residual summary and clustered covariance.
-      factor->compressRows();
+      factor->compressRows(calibration_.fixedBlocks().count(cb.intrinsics) == 0);
     }
     out.push_back(std::move(piece));
   }

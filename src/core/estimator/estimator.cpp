@@ -347,7 +347,7 @@ void Estimator::Impl::marginalizeOldest() {
   auto made = prior.marginalize(
       oldest.residuals, leaving,
       [this](const double* block) { return monitor.baseManifold(*window.problem(), block); },
-      monitor.heldDirections());
+      monitor.heldDirections(), calibration.fixedBlocks());
   // Remove the old prior and the state (with every residual on it).
   prior.removeFrom(window.problem());
   window.removeOldest(leaving);

@@ -8,9 +8,10 @@ namespace estimator_internal {
 StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
     const ManifoldOf& manifold_of,
-    const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative)
-    const {
+    const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
+    const std::set<const double*>& fixed) const {
   Marginalizer m;
+  for (const double* block : fixed) m.setFixed(block);
   for (const auto& r : residuals) {
     for (double* block : r.blocks) m.setManifold(block, manifold_of(block));
     m.addResidual(r.cost, r.loss, r.blocks, true);

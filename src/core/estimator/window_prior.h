@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -28,14 +29,15 @@ class WindowPrior {
   using ManifoldOf = std::function<const ceres::Manifold*(const double* block)>;
 
   // The prior after marginalizing `leaving` out of `residuals` and the current prior; nothing
-  // changes in the problem yet. The measurements add nothing along `uninformative` (per block,
+  // changes in the problem yet. Blocks in `fixed` (constant for the whole run) are conditioned
+  // on, as the solves do. The measurements add nothing along `uninformative` (per block,
   // tangent directions as columns, and the variance each keeps while held:
   // marginalization_factor.h); the old prior keeps what earlier motion told.
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(
       const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
       const ManifoldOf& manifold_of,
-      const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative)
-      const;
+      const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
+      const std::set<const double*>& fixed) const;
   // Removes the current prior's rows from the problem and forgets it.
   void removeFrom(ceres::Problem* problem);
   // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense

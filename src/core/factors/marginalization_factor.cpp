@@ -108,7 +108,7 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
   std::map<const double*, int> index;
   const auto enter = [&](int pass, double* address, int ambient) {
     const bool dropped = drop.count(address) > 0;
-    if ((pass == 0) != dropped || index.count(address)) return;
+    if ((pass == 0) != dropped || index.count(address) || fixed_.count(address)) return;
     const auto m = manifolds_.find(address);
     const ceres::Manifold* manifold = m == manifolds_.end() ? nullptr : m->second;
     index[address] = static_cast<int>(entries.size());
@@ -153,8 +153,14 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
     Eigen::VectorXd r(rows);
     std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J;
     std::vector<double*> jac_ptrs;
-    for (int size : sizes) J.emplace_back(rows, size);
-    for (auto& j : J) jac_ptrs.push_back(j.data());
+    bool any_variable = false;
+    for (std::size_t b = 0; b < sizes.size(); ++b) {
+      const bool fixed = fixed_.count(residual.blocks[b]) > 0;
+      any_variable = any_variable || !fixed;
+      J.emplace_back(fixed ? 0 : rows, fixed ? 0 : sizes[b]);
+    }
+    if (!any_variable) continue;
+    for (auto& j : J) jac_ptrs.push_back(j.size() > 0 ? j.data() : nullptr);
     std::vector<const double*> params(residual.blocks.begin(), residual.blocks.end());
     if (!residual.cost->Evaluate(params.data(), r.data(), jac_ptrs.data())) {
       return Status::Error("a residual block failed to evaluate during marginalization");
@@ -166,19 +172,21 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       weight = std::sqrt(std::max(rho[1], 0.0));
     }
     r *= weight;
-    // Tangent Jacobians of this residual per block.
-    std::vector<Eigen::MatrixXd> Jt(residual.blocks.size());
-    std::vector<const Entry*> at(residual.blocks.size());
+    // Tangent Jacobians of this residual per variable block.
+    std::vector<Eigen::MatrixXd> Jt;
+    std::vector<const Entry*> at;
     for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
+      if (jac_ptrs[b] == nullptr) continue;
       const Entry& e = entries[index.at(residual.blocks[b])];
-      at[b] = &e;
+      at.push_back(&e);
+      Jt.emplace_back();
       if (e.manifold != nullptr) {
         Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(e.ambient,
                                                                                     e.tangent);
         e.manifold->PlusJacobian(e.address, plus.data());
-        Jt[b] = weight * (J[b] * plus);
+        Jt.back() = weight * (J[b] * plus);
       } else {
-        Jt[b] = weight * J[b];
+        Jt.back() = weight * J[b];
       }
     }
     for (std::size_t a = 0; a < Jt.size(); ++a) {
@@ -210,9 +218,13 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
     }
     Eigen::VectorXd dx(total);
     std::vector<Eigen::MatrixXd> M(blocks.size());
-    std::vector<const Entry*> at(blocks.size());
+    std::vector<const Entry*> at(blocks.size(), nullptr);
     for (std::size_t i = 0; i < blocks.size(); ++i) {
       const auto& b = blocks[i];
+      if (fixed_.count(b.address)) {  // conditioned on: constant, at x0 (dx = 0)
+        dx.segment(offsets[i], b.tangent).setZero();
+        continue;
+      }
       const Entry& e = entries[index.at(b.address)];
       at[i] = &e;
       Eigen::MatrixXd minus = Eigen::MatrixXd::Identity(b.tangent, b.ambient);
@@ -237,13 +249,30 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       M[i] = minus * plus;
     }
     const Eigen::VectorXd grad = gs + Hs * dx;
+    // M is the identity for the manifolds here (then a block of H* is added as it is).
+    std::vector<bool> identity(blocks.size());
     for (std::size_t i = 0; i < blocks.size(); ++i) {
+      identity[i] = at[i] != nullptr && M[i].rows() == M[i].cols() &&
+                    M[i] == Eigen::MatrixXd::Identity(M[i].rows(), M[i].cols());
+    }
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      if (at[i] == nullptr) continue;
       const int ti = blocks[i].tangent;
-      g.segment(at[i]->offset, at[i]->tangent).noalias() +=
-          M[i].transpose() * grad.segment(offsets[i], ti);
+      if (identity[i]) {
+        g.segment(at[i]->offset, at[i]->tangent) += grad.segment(offsets[i], ti);
+      } else {
+        g.segment(at[i]->offset, at[i]->tangent).noalias() +=
+            M[i].transpose() * grad.segment(offsets[i], ti);
+      }
       for (std::size_t j = 0; j < blocks.size(); ++j) {
-        H.block(at[i]->offset, at[j]->offset, at[i]->tangent, at[j]->tangent).noalias() +=
-            M[i].transpose() * Hs.block(offsets[i], offsets[j], ti, blocks[j].tangent) * M[j];
+        if (at[j] == nullptr) continue;
+        const auto Hij = Hs.block(offsets[i], offsets[j], ti, blocks[j].tangent);
+        auto out = H.block(at[i]->offset, at[j]->offset, at[i]->tangent, at[j]->tangent);
+        if (identity[i] && identity[j]) {
+          out += Hij;
+        } else {
+          out.noalias() += M[i].transpose() * Hij * M[j];
+        }
       }
     }
   }

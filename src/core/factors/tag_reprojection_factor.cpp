@@ -141,13 +141,14 @@ void TagReprojectionFactor::usePropagationNoise() {
   sizes->push_back(kPropagationNoiseSize);
 }
 
-bool TagReprojectionFactor::compressRows() {
-  if (landmark_block_ >= 0 || compressed_ ||
-      2 * static_cast<int>(corners_.size()) <= kCompressedRows) {
-    return compressed_;
+bool TagReprojectionFactor::compressRows(bool with_intrinsics) {
+  const int columns = with_intrinsics ? kPoseColumns + kIntrinsicsSize : kPoseColumns;
+  if (landmark_block_ >= 0 || compressed_columns_ > 0 ||
+      2 * static_cast<int>(corners_.size()) <= columns + 1) {
+    return compressed_columns_ > 0;
   }
-  compressed_ = true;
-  set_num_residuals(kCompressedRows);
+  compressed_columns_ = columns;
+  set_num_residuals(columns + 1);
   return true;
 }
 
@@ -368,9 +369,17 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   }
   // Compressed: the corners' rows [J_6 J_k r] (whitened, after the loss), for the normal
   // equations at the end.
-  Eigen::Matrix<double, Eigen::Dynamic, kCompressedColumns + 1> A;
-  if (compressed_ && jacobians != nullptr)
-    A.resize(2 * static_cast<Eigen::Index>(corners_.size()), kCompressedColumns + 1);
+  // Compressed: the corners' rows [J_6 (J_k) r] (whitened, after the loss), for the normal
+  // equations at the end.
+  const bool compressed = compressed_columns_ > 0;
+  const int C = compressed_columns_;
+  if (compressed && jacobians != nullptr && C == kPoseColumns && J_intrinsics != nullptr) {
+    return false;  // compressed without the intrinsics: their Jacobian is not available
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, Eigen::Dynamic, kMaxCompressedRows> A;
+  if (compressed && jacobians != nullptr) {
+    A.resize(2 * static_cast<Eigen::Index>(corners_.size()), C + 1);
+  }
   double squares = 0.0;
   Eigen::Vector2d uv;
   Eigen::Matrix<double, 2, 3> J_pc;
@@ -387,18 +396,18 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
     const bool robust = cornerLoss(&r, &M);
     squares += r.squaredNorm();
     const int row = 2 * static_cast<int>(c);
-    if (!compressed_) residuals[row] = r[0], residuals[row + 1] = r[1];
+    if (!compressed) residuals[row] = r[0], residuals[row + 1] = r[1];
     if (jacobians == nullptr) continue;
 
-    Eigen::Matrix<double, 2, kCompressedColumns> J;  // [J_6 (camera tangent), J_k (intrinsics)]
+    Eigen::Matrix<double, 2, kPoseColumns + kIntrinsicsSize> J;  // [J_6 (camera tangent), J_k]
     const Eigen::Matrix<double, 2, 3> J_w =
         robust ? (M * J_pc * inv_sigma).eval() : (J_pc * inv_sigma).eval();
     J.template leftCols<3>() = J_w * lie::hat(pc).transpose();
     J.template middleCols<3>(3) = J_w;
     J.template rightCols<8>() = robust ? (M * J_k * inv_sigma).eval() : (J_k * inv_sigma).eval();
-    if (compressed_) {
-      A.template block<2, kCompressedColumns>(row, 0) = J;
-      A.template block<2, 1>(row, kCompressedColumns) = r;
+    if (compressed) {
+      A.block(row, 0, 2, C) = J.leftCols(C);
+      A.block(row, C, 2, 1) = r;
       continue;
     }
     for (const BlockMap& m : maps) {
@@ -419,48 +428,49 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
       }
     }
   }
-  if (!compressed_) return true;
+  if (!compressed) return true;
   // Compressed rows (see the header): H = P^T L D L^T P, rows S = D^1/2 L^T P, residuals
   // e = D^-1/2 L^-1 P g (S^T e = g), and one more row holding the rest of the squares.
-  std::fill(residuals, residuals + kCompressedRows, 0.0);
+  std::fill(residuals, residuals + C + 1, 0.0);
   if (jacobians == nullptr) {
     residuals[0] = std::sqrt(squares);
     return true;
   }
-  Eigen::Matrix<double, kCompressedColumns + 1, kCompressedColumns + 1> N;
-  N.setZero();
+  using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxCompressedRows,
+                               kMaxCompressedRows>;
+  Square N = Square::Zero(C + 1, C + 1);
   N.selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
-  const Eigen::Matrix<double, kCompressedColumns, kCompressedColumns> H =
-      N.topLeftCorner<kCompressedColumns, kCompressedColumns>().selfadjointView<Eigen::Lower>();
-  const Eigen::Matrix<double, kCompressedColumns, 1> g =
-      N.bottomLeftCorner<1, kCompressedColumns>().transpose();
-  const Eigen::LDLT<Eigen::Matrix<double, kCompressedColumns, kCompressedColumns>> ldlt(H);
-  Eigen::Matrix<double, kCompressedColumns, kCompressedColumns> S =
-      Eigen::Matrix<double, kCompressedColumns, kCompressedColumns>::Identity();
+  const Square H = N.topLeftCorner(C, C).selfadjointView<Eigen::Lower>();
+  const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCompressedRows, 1> g =
+      N.bottomLeftCorner(1, C).transpose();
+  const Eigen::LDLT<Square> ldlt(H);
+  Square S = Square::Identity(C, C);
   S = ldlt.transpositionsP() * S;  // P
-  Eigen::Matrix<double, kCompressedColumns, 1> e = ldlt.matrixL().solve(S * g);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCompressedRows, 1> e =
+      ldlt.matrixL().solve(S * g);
   S = ldlt.matrixU() * S;  // L^T P
   const auto D = ldlt.vectorD();
   const double floor = 1e-12 * std::max(D.maxCoeff(), 0.0);
   double explained = 0.0;
-  for (int k = 0; k < kCompressedColumns; ++k) {
+  for (int k = 0; k < C; ++k) {
     const double d = D[k] > floor ? std::sqrt(D[k]) : 0.0;
     S.row(k) *= d;
     e[k] = d > 0.0 ? e[k] / d : 0.0;
     residuals[k] = e[k];
     explained += e[k] * e[k];
   }
-  residuals[kCompressedColumns] = std::sqrt(std::max(squares - explained, 0.0));
+  residuals[C] = std::sqrt(std::max(squares - explained, 0.0));
   for (const BlockMap& m : maps) {
-    Eigen::Map<Eigen::Matrix<double, kCompressedRows, Eigen::Dynamic, Eigen::RowMajor>> out(
-        jacobians[m.block], kCompressedRows, m.ambient);
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> out(
+        jacobians[m.block], C + 1, m.ambient);
     out.setZero();
-    out.topLeftCorner(kCompressedColumns, m.G.cols()) = S.template leftCols<6>().lazyProduct(m.G);
+    out.topLeftCorner(C, m.G.cols()) = S.leftCols(kPoseColumns).lazyProduct(m.G);
   }
   if (J_intrinsics != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, kCompressedRows, 8, Eigen::RowMajor>> out(J_intrinsics);
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 8, Eigen::RowMajor>> out(J_intrinsics, C + 1,
+                                                                              8);
     out.setZero();
-    out.template topRows<kCompressedColumns>() = S.template rightCols<8>();
+    out.topRows(C) = S.rightCols(8);
   }
   return true;
 }

@@ -48,42 +48,52 @@ void ImuPreintegration::integrate(const ImuMeasurement& from, const ImuMeasureme
   const Eigen::Matrix3d A_bg = 0.5 * R1 * lie::hat(a1) * Jr * dt;
   const Eigen::Matrix3d A_ba = -0.5 * (R0 + R1);
 
-  // Error-state transition F and noise input G (see the header).
-  Matrix15d F = Matrix15d::Identity();
-  F.block<3, 3>(kRotation, kRotation) = dR_step.transpose();
-  F.block<3, 3>(kRotation, kBiasGyro) = -Jr * dt;
-  F.block<3, 3>(kPosition, kRotation) = 0.5 * A_theta * dt * dt;
-  F.block<3, 3>(kPosition, kVelocity) = Eigen::Matrix3d::Identity() * dt;
-  F.block<3, 3>(kPosition, kBiasGyro) = 0.5 * A_bg * dt * dt;
-  F.block<3, 3>(kPosition, kBiasAccel) = 0.5 * A_ba * dt * dt;
-  F.block<3, 3>(kVelocity, kRotation) = A_theta * dt;
-  F.block<3, 3>(kVelocity, kBiasGyro) = A_bg * dt;
-  F.block<3, 3>(kVelocity, kBiasAccel) = A_ba * dt;
+  // Error-state transition F and noise input G (see the header). F = I + E with E nonzero only
+  // in the rotation, position and velocity rows (the biases are random walks), and G the
+  // identity on the bias noises: the products below use that structure (a dense 15 x 15
+  // product per reading, as F P F^T, cost several times as much).
+  Eigen::Matrix<double, 9, 15> E = Eigen::Matrix<double, 9, 15>::Zero();
+  E.block<3, 3>(kRotation, kRotation) = dR_step.transpose() - Eigen::Matrix3d::Identity();
+  E.block<3, 3>(kRotation, kBiasGyro) = -Jr * dt;
+  E.block<3, 3>(kPosition, kRotation) = 0.5 * A_theta * dt * dt;
+  E.block<3, 3>(kPosition, kVelocity) = Eigen::Matrix3d::Identity() * dt;
+  E.block<3, 3>(kPosition, kBiasGyro) = 0.5 * A_bg * dt * dt;
+  E.block<3, 3>(kPosition, kBiasAccel) = 0.5 * A_ba * dt * dt;
+  E.block<3, 3>(kVelocity, kRotation) = A_theta * dt;
+  E.block<3, 3>(kVelocity, kBiasGyro) = A_bg * dt;
+  E.block<3, 3>(kVelocity, kBiasAccel) = A_ba * dt;
 
-  // Noise inputs [n_g, n_a, n_bg, n_ba]: white noise enters like a bias error.
-  Eigen::Matrix<double, 15, 12> G = Eigen::Matrix<double, 15, 12>::Zero();
-  G.block<3, 3>(kRotation, 0) = -Jr * dt;
-  G.block<3, 3>(kPosition, 0) = 0.5 * A_bg * dt * dt;
-  G.block<3, 3>(kVelocity, 0) = A_bg * dt;
-  G.block<3, 3>(kPosition, 3) = 0.5 * A_ba * dt * dt;
-  G.block<3, 3>(kVelocity, 3) = A_ba * dt;
-  G.block<3, 3>(kBiasGyro, 6).setIdentity();
-  G.block<3, 3>(kBiasAccel, 9).setIdentity();
+  // Noise inputs [n_g, n_a] on the first nine rows; the bias noises [n_bg, n_ba] enter the
+  // bias rows through the identity. White noise enters like a bias error.
+  Eigen::Matrix<double, 9, 6> Gn = Eigen::Matrix<double, 9, 6>::Zero();
+  Gn.block<3, 3>(kRotation, 0) = -Jr * dt;
+  Gn.block<3, 3>(kPosition, 0) = 0.5 * A_bg * dt * dt;
+  Gn.block<3, 3>(kVelocity, 0) = A_bg * dt;
+  Gn.block<3, 3>(kPosition, 3) = 0.5 * A_ba * dt * dt;
+  Gn.block<3, 3>(kVelocity, 3) = A_ba * dt;
   const double sg = noise_.gyroscope_noise_density, sa = noise_.accelerometer_noise_density;
   const double wg = noise_.gyroscope_random_walk, wa = noise_.accelerometer_random_walk;
-  Eigen::Matrix<double, 12, 1> q;
   double gap_w = 0.0, gap_a = 0.0;  // see the header
   const double span = std::max(dt, toSeconds(to.span_ns));
   if (max_interval_s_ > 0.0 && span > max_interval_s_) {
     gap_w = (10.0 * span) * (10.0 * span);
     gap_a = (20.0 * span) * (20.0 * span);
   }
+  Eigen::Matrix<double, 6, 1> q;
   q << Eigen::Vector3d::Constant(sg * sg / dt + gap_w),
-      Eigen::Vector3d::Constant(sa * sa / dt + gap_a), Eigen::Vector3d::Constant(wg * wg * dt),
-      Eigen::Vector3d::Constant(wa * wa * dt);
+      Eigen::Vector3d::Constant(sa * sa / dt + gap_a);
 
-  covariance_ = F * covariance_ * F.transpose() + G * q.asDiagonal() * G.transpose();
-  jacobian_ = F * jacobian_;
+  // P' = F P F^T + G Q G^T = P + E P + (E P)^T + (E P) E^T + Gn Qn Gn^T + Q_bias (P symmetric).
+  const Eigen::Matrix<double, 9, 15> EP = E.lazyProduct(covariance_);
+  const Eigen::Matrix<double, 9, 9> EPE = EP.lazyProduct(E.transpose());
+  const Eigen::Matrix<double, 9, 9> GQG = Gn.lazyProduct(q.asDiagonal() * Gn.transpose());
+  covariance_.topRows<9>() += EP;
+  covariance_.leftCols<9>() += EP.transpose();
+  covariance_.topLeftCorner<9, 9>() += EPE + GQG;
+  covariance_.diagonal().segment<3>(kBiasGyro).array() += wg * wg * dt;
+  covariance_.diagonal().segment<3>(kBiasAccel).array() += wa * wa * dt;
+  const Eigen::Matrix<double, 9, 15> EJ = E.lazyProduct(jacobian_);
+  jacobian_.topRows<9>() += EJ;
 
   dp_ += dv_ * dt + 0.5 * a_rot * dt * dt;
   dv_ += a_rot * dt;
