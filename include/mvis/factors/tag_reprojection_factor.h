@@ -218,6 +218,11 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   template <int Dim>
   void cameraPose(double const* const* parameters, const Eigen::Matrix<double, 9, 1>& lin,
                   CameraPose<Dim>* out) const;
+  // R_C_G, t_C_G on jets or, for the cost alone, doubles; kDeltas: with the anchor's deltas'
+  // change (IMU intrinsics or propagation noise).
+  template <typename T, bool kDeltas>
+  void cameraPose(double const* const* parameters, const Eigen::Matrix<double, 9, 1>& lin,
+                  Eigen::Matrix<T, 3, 3>* R_CG, Eigen::Matrix<T, 3, 1>* t_CG) const;
   // Jet offset, tangent columns and ambient size of each parameter block but the intrinsics.
   struct BlockLayout {
     int jet_offset, columns, ambient;

@@ -178,11 +178,11 @@ bool TagReprojectionFactor::cornerLoss(Eigen::Vector2d* r, Eigen::Matrix2d* M) c
   return true;
 }
 
-template <int Dim>
+template <typename StageJet, bool kDeltas>
 void TagReprojectionFactor::cameraPose(double const* const* parameters,
                                        const Eigen::Matrix<double, 9, 1>& lin,
-                                       CameraPose<Dim>* out) const {
-  using StageJet = ceres::Jet<double, Dim>;
+                                       Eigen::Matrix<StageJet, 3, 3>* R_CG_out,
+                                       Eigen::Matrix<StageJet, 3, 1>* t_CG_out) const {
   const auto perturbRotation = [](const Eigen::Quaterniond& q, int first) {
     return tangent_jet::perturbRotation<StageJet>(q, first);
   };
@@ -193,7 +193,8 @@ void TagReprojectionFactor::cameraPose(double const* const* parameters,
   const double* pose_k = parameters[0];
   const Mat3<StageJet> R_k = perturbRotation(poseRotation(pose_k), 0);
   const Vec3<StageJet> p_k = perturbVector(pose_k + 4, 3);
-  const StageJet t_d(parameters[n_blocks - 1][0], kTimeOffsetJet);
+  const StageJet t_d =
+      tangent_jet::perturbScalar<StageJet>(parameters[n_blocks - 1][0], kTimeOffsetJet);
   const StageJet dt = StageJet(dt_nominal_) + t_d;
 
   Mat3<StageJet> R;  // R_G_I(t)
@@ -226,13 +227,13 @@ void TagReprojectionFactor::cameraPose(double const* const* parameters,
         a.dp.cast<StageJet>() + a.J_p_bg.cast<StageJet>() * dbg + a.J_p_ba.cast<StageJet>() * dba;
     Vec3<StageJet> dv =
         a.dv.cast<StageJet>() + a.J_v_bg.cast<StageJet>() * dbg + a.J_v_ba.cast<StageJet>() * dba;
-    if constexpr (Dim > kStageDim) {
+    if constexpr (kDeltas) {
       // The intrinsics' first-order change, with its own directions (chained below).
       Vec3<StageJet> e_R, e_p, e_v;
       for (int i = 0; i < 3; ++i) {
-        e_R[i] = StageJet(0.0, kDeltaJet + i);
-        e_p[i] = StageJet(lin[3 + i], kDeltaJet + 3 + i);
-        e_v[i] = StageJet(lin[6 + i], kDeltaJet + 6 + i);
+        e_R[i] = tangent_jet::perturbScalar<StageJet>(0.0, kDeltaJet + i);
+        e_p[i] = tangent_jet::perturbScalar<StageJet>(lin[3 + i], kDeltaJet + 3 + i);
+        e_v[i] = tangent_jet::perturbScalar<StageJet>(lin[6 + i], kDeltaJet + 6 + i);
       }
       dR = dR * lie::expSO3(lin.head<3>()).cast<StageJet>() * expT<StageJet>(e_R);
       dp += e_p;
@@ -251,9 +252,18 @@ void TagReprojectionFactor::cameraPose(double const* const* parameters,
   const double* extrinsic = parameters[n_blocks - 2];
   const Mat3<StageJet> R_CI = perturbRotation(poseRotation(extrinsic), kExtrinsicJet);
   const Vec3<StageJet> p_CI = perturbVector(extrinsic + 4, kExtrinsicJet + 3);
-  const Mat3<StageJet> R_CG = R_CI * R.transpose();
-  const Vec3<StageJet> t_CG = p_CI - R_CG * p;
+  *R_CG_out = R_CI * R.transpose();
+  *t_CG_out = p_CI - *R_CG_out * p;
+}
 
+template <int Dim>
+void TagReprojectionFactor::cameraPose(double const* const* parameters,
+                                       const Eigen::Matrix<double, 9, 1>& lin,
+                                       CameraPose<Dim>* out) const {
+  using StageJet = ceres::Jet<double, Dim>;
+  Mat3<StageJet> R_CG;
+  Vec3<StageJet> t_CG;
+  cameraPose<StageJet, (Dim > kStageDim)>(parameters, lin, &R_CG, &t_CG);
   for (int i = 0; i < 3; ++i) {
     out->t[i] = t_CG[i].a;
     out->dT.row(i) = t_CG[i].v.transpose();
@@ -288,17 +298,20 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   // t_CG -> Exp(omega) t_CG + v) per jet direction: omega from dR R^T (skew), v = dt + t x omega.
   // A corner then moves by dp_C = -[p_C]x omega + v, so that each corner needs only its 2 x 6
   // projection Jacobian in that tangent, and each block the 6 x n map G_b below. Computed once
-  // per set of parameter values (Ceres evaluates the cost at a candidate, then the Jacobians
-  // there once it is taken; without a board a frame's tag factors share it).
+  // per set of parameter values (the Jacobians after the cost at one point; without a board a
+  // frame's tag factors share it); for the cost alone only R_CG, t_CG, without jets.
   Eigen::Matrix3d R_val;
   Eigen::Vector3d t_val;
   Eigen::Matrix<double, 6, Dim> G;
-  std::vector<double> key;
-  const std::vector<int32_t>& sizes = parameter_block_sizes();
-  for (int b = 0; b < static_cast<int>(sizes.size()); ++b) {
-    if (b != landmark_block_) key.insert(key.end(), parameters[b], parameters[b] + sizes[b]);
-  }
-  {
+  if (jacobians == nullptr) {
+    // The cost alone (Ceres's candidate steps): no derivatives.
+    cameraPose<double, (Dim > kStageDim)>(parameters, lin, &R_val, &t_val);
+  } else {
+    std::vector<double> key;
+    const std::vector<int32_t>& sizes = parameter_block_sizes();
+    for (int b = 0; b < static_cast<int>(sizes.size()); ++b) {
+      if (b != landmark_block_) key.insert(key.end(), parameters[b], parameters[b] + sizes[b]);
+    }
     std::lock_guard<std::mutex> lock(shared_->mutex);
     if (shared_->key != key || shared_->dim != Dim) {
       CameraPose<Dim> pose;
@@ -390,7 +403,12 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
                                     : corners_[c].p_G;
     const Eigen::Vector3d pc = R_val * p_G + t_val;
     if (!(pc[2] > 1e-6)) return false;  // behind the camera: Ceres rejects the step
-    projectWithJacobians(model_, intrinsics, pc, &uv, &J_pc, &J_k);
+    if (jacobians == nullptr) {
+      uv = projectPoint<double>(model_, Eigen::Vector4d(intrinsics),
+                                Eigen::Vector4d(intrinsics + 4), pc);
+    } else {
+      projectWithJacobians(model_, intrinsics, pc, &uv, &J_pc, &J_k);
+    }
     Eigen::Vector2d r = (uv - corners_[c].uv) * inv_sigma;
     Eigen::Matrix2d M = Eigen::Matrix2d::Identity();
     const bool robust = cornerLoss(&r, &M);
