@@ -76,8 +76,9 @@
 //                    intrinsics [8], with the IMU intrinsics the base IMU's block [24], with
 //                    the propagation noise its block [9]
 //   then, with landmarks, the tag's corners [12]
-// Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame by forward-mode
-// automatic differentiation in the tangent directions of the blocks (pose and extrinsic
+// Jacobians: the camera pose R_C_G, t_C_G is differentiated once per frame (IMU-propagated: by
+// hand, imuCameraTangent; kinematic and pose-based: by forward-mode automatic differentiation)
+// in the tangent directions of the blocks (pose and extrinsic
 // perturbations on the right, see state_blocks.h; speed and biases; gravity in its ambient
 // coordinates; t_d), turned into the camera pose's own tangent [omega; v] (G, 6 x directions:
 // omega from dR R^T, v = dt + t x omega), then chained per corner with the projection's analytic
@@ -218,6 +219,11 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   template <int Dim>
   void cameraPose(double const* const* parameters, const Eigen::Matrix<double, 9, 1>& lin,
                   CameraPose<Dim>* out) const;
+  // IMU-propagated: R_C_G, t_C_G and the camera pose's tangent per jet direction (G), by hand.
+  template <int Dim>
+  void imuCameraTangent(double const* const* parameters, const Eigen::Matrix<double, 9, 1>& lin,
+                        Eigen::Matrix3d* R_CG, Eigen::Vector3d* t_CG,
+                        Eigen::Matrix<double, 6, Dim>* G) const;
   // R_C_G, t_C_G on jets or, for the cost alone, doubles; kDeltas: with the anchor's deltas'
   // change (IMU intrinsics or propagation noise).
   template <typename T, bool kDeltas>

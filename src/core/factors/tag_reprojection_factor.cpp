@@ -257,6 +257,87 @@ void TagReprojectionFactor::cameraPose(double const* const* parameters,
 }
 
 template <int Dim>
+void TagReprojectionFactor::imuCameraTangent(double const* const* parameters,
+                                             const Eigen::Matrix<double, 9, 1>& lin,
+                                             Eigen::Matrix3d* R_CG, Eigen::Vector3d* t_CG,
+                                             Eigen::Matrix<double, 6, Dim>* G) const {
+  // The IMU-propagated pose of the header, differentiated by hand: per direction the IMU pose's
+  // right perturbation dtheta_R and its position's change dp, then the camera pose's tangent
+  // omega = -R_CI dtheta_R, v = -R_CG dp + p_CI x omega (extrinsic: omega = R_CI dtheta_e,
+  // v = dp_e + p_CI x omega). The same quantities as cameraPose<Jet> computes.
+  using Eigen::Matrix3d;
+  using Eigen::Vector3d;
+  const ImuAnchor& a = anchor_;
+  const double* pose_k = parameters[0];
+  const Matrix3d R_k = poseRotation(pose_k).toRotationMatrix();
+  const Vector3d p_k(pose_k + 4), v(parameters[1]), b_g(parameters[1] + 3), b_a(parameters[1] + 6),
+      g(parameters[2]);
+  const double dt = dt_nominal_ + parameters[4][0];
+  const Vector3d dbg = b_g - a.bias_gyro0, dba = b_a - a.bias_accel0;
+  const Vector3d phi_b = a.J_R_bg * dbg;
+  const bool deltas = Dim > kStageDim;
+  const Matrix3d RL = deltas ? lie::expSO3(lin.head<3>()) : Matrix3d::Identity();
+  const Matrix3d dR = a.dR.toRotationMatrix() * lie::expSO3(phi_b) * RL;
+  Vector3d dp = a.dp + a.J_p_bg * dbg + a.J_p_ba * dba;
+  Vector3d dv = a.dv + a.J_v_bg * dbg + a.J_v_ba * dba;
+  if (deltas) {
+    dp += lin.segment<3>(3);
+    dv += lin.segment<3>(6);
+  }
+  const double T = a.T_a;
+  const Matrix3d R_a = R_k * dR;
+  const Vector3d p_a = p_k + v * T + g * (0.5 * T * T) + R_k * dp;
+  const Vector3d v_a = v + g * T + R_k * dv;
+  const Vector3d w = a.gyro - b_g;
+  const Vector3d f = a.accel - b_a;
+  const Vector3d acc = R_a * f + g;
+  const Vector3d psi = w * dt + a.angular_acceleration * (0.5 * dt * dt);
+  const Matrix3d RE = lie::expSO3(psi);
+  const Matrix3d R = R_a * RE;
+  const double h = 0.5 * dt * dt;
+  const Vector3d p = p_a + v_a * dt + acc * h;
+  const double* extrinsic = parameters[3];
+  const Matrix3d R_CI = poseRotation(extrinsic).toRotationMatrix();
+  const Vector3d p_CI(extrinsic + 4);
+  *R_CG = R_CI * R.transpose();
+  *t_CG = p_CI - *R_CG * p;
+
+  // IMU pose changes [dtheta_R; dp] per direction, then the camera's.
+  Eigen::Matrix<double, 6, Dim> imu = Eigen::Matrix<double, 6, Dim>::Zero();
+  const Matrix3d RE_t = RE.transpose();
+  const Matrix3d Jr_psi = lie::rightJacobianSO3(psi);
+  const Matrix3d acc_rot = -h * R_a * lie::hat(f);  // dp per right perturbation of R_a
+  // State k's rotation: R_a -> R_a Exp(dR^T d).
+  imu.template block<3, 3>(0, 0) = RE_t * dR.transpose();
+  imu.template block<3, 3>(3, 0) =
+      -R_k * lie::hat(dp) - dt * R_k * lie::hat(dv) + acc_rot * dR.transpose();
+  imu.template block<3, 3>(3, 3) = Matrix3d::Identity();             // p_k
+  imu.template block<3, 3>(3, 6) = (T + dt) * Matrix3d::Identity();  // v_k
+  // b_g: the deltas' rotation dR -> dR Exp(RL^T Jr(phi_b) J_R_bg d), and psi -> psi - dt d.
+  const Matrix3d bg_rot = RL.transpose() * lie::rightJacobianSO3(phi_b) * a.J_R_bg;
+  imu.template block<3, 3>(0, 9) = RE_t * bg_rot - dt * Jr_psi;
+  imu.template block<3, 3>(3, 9) = R_k * (a.J_p_bg + dt * a.J_v_bg) + acc_rot * bg_rot;
+  imu.template block<3, 3>(3, 12) = R_k * (a.J_p_ba + dt * a.J_v_ba) - h * R_a;         // b_a
+  imu.template block<3, 3>(3, 15) = (0.5 * T * T + T * dt + h) * Matrix3d::Identity();  // g
+  imu.template block<3, 1>(0, kTimeOffsetJet) = Jr_psi * (w + a.angular_acceleration * dt);
+  imu.template block<3, 1>(3, kTimeOffsetJet) = v_a + acc * dt;
+  if constexpr (Dim > kStageDim) {
+    imu.template block<3, 3>(0, kDeltaJet) = RE_t;  // e_R: dR -> dR Exp(e_R)
+    imu.template block<3, 3>(3, kDeltaJet) = acc_rot;
+    imu.template block<3, 3>(3, kDeltaJet + 3) = R_k;       // e_p
+    imu.template block<3, 3>(3, kDeltaJet + 6) = dt * R_k;  // e_v
+  }
+  const Matrix3d p_CI_hat = lie::hat(p_CI);
+  G->template topRows<3>() = -R_CI * imu.template topRows<3>();
+  G->template bottomRows<3>() =
+      -*R_CG * imu.template bottomRows<3>() + p_CI_hat * G->template topRows<3>();
+  // The extrinsic's own directions.
+  G->template block<3, 3>(0, kExtrinsicJet) = R_CI;
+  G->template block<3, 3>(3, kExtrinsicJet) = p_CI_hat * R_CI;
+  G->template block<3, 3>(3, kExtrinsicJet + 3) = Matrix3d::Identity();
+}
+
+template <int Dim>
 void TagReprojectionFactor::cameraPose(double const* const* parameters,
                                        const Eigen::Matrix<double, 9, 1>& lin,
                                        CameraPose<Dim>* out) const {
@@ -306,7 +387,9 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   if (jacobians == nullptr) {
     // The cost alone (Ceres's candidate steps): no derivatives.
     cameraPose<double, (Dim > kStageDim)>(parameters, lin, &R_val, &t_val);
-  } else {
+  } else if (interpolation_ == Interpolation::kImuPropagated) {
+    imuCameraTangent<Dim>(parameters, lin, &R_val, &t_val, &G);
+  } else if constexpr (Dim == kStageDim) {  // kinematic, pose-based: jets
     std::vector<double> key;
     const std::vector<int32_t>& sizes = parameter_block_sizes();
     for (int b = 0; b < static_cast<int>(sizes.size()); ++b) {
