@@ -378,9 +378,9 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   // Stage 2: the camera pose's change in its own tangent [omega; v] (R_CG -> Exp(omega) R_CG,
   // t_CG -> Exp(omega) t_CG + v) per jet direction: omega from dR R^T (skew), v = dt + t x omega.
   // A corner then moves by dp_C = -[p_C]x omega + v, so that each corner needs only its 2 x 6
-  // projection Jacobian in that tangent, and each block the 6 x n map G_b below. Computed once
-  // per set of parameter values (the Jacobians after the cost at one point; without a board a
-  // frame's tag factors share it); for the cost alone only R_CG, t_CG, without jets.
+  // projection Jacobian in that tangent, and each block the 6 x n map G_b below. IMU-propagated:
+  // by hand; kinematic and pose-based: from jets, once per set of parameter values (without a
+  // board a frame's tag factors share it). For the cost alone only R_CG, t_CG, on doubles.
   Eigen::Matrix3d R_val;
   Eigen::Vector3d t_val;
   Eigen::Matrix<double, 6, Dim> G;
@@ -463,8 +463,6 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   if (J_landmark != nullptr) {
     std::fill(J_landmark, J_landmark + num_residuals() * kTagLandmarkSize, 0.0);
   }
-  // Compressed: the corners' rows [J_6 J_k r] (whitened, after the loss), for the normal
-  // equations at the end.
   // Compressed: the corners' rows [J_6 (J_k) r] (whitened, after the loss), for the normal
   // equations at the end.
   const bool compressed = compressed_columns_ > 0;
