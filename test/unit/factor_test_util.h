@@ -23,10 +23,12 @@ inline Eigen::VectorXd evaluateResiduals(const ceres::CostFunction& cost,
   return r;
 }
 
-// Analytic tangent Jacobians (ambient Jacobian times PlusJacobian) of every block.
+// Analytic tangent Jacobians (ambient Jacobian times PlusJacobian) of every block but `skip`
+// (its Jacobian not asked for, left empty); the same evaluation's residuals in `residuals`.
 inline std::vector<Eigen::MatrixXd> analyticTangentJacobians(
     const ceres::CostFunction& cost, const std::vector<std::vector<double>>& blocks,
-    const std::vector<const ceres::Manifold*>& manifolds) {
+    const std::vector<const ceres::Manifold*>& manifolds, Eigen::VectorXd* residuals = nullptr,
+    int skip = -1) {
   const int rows = cost.num_residuals();
   std::vector<const double*> params;
   std::vector<RowMatrix> ambient;
@@ -35,11 +37,18 @@ inline std::vector<Eigen::MatrixXd> analyticTangentJacobians(
     params.push_back(b.data());
     ambient.emplace_back(rows, static_cast<int>(b.size()));
   }
-  for (auto& a : ambient) jac.push_back(a.data());
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    jac.push_back(static_cast<int>(i) == skip ? nullptr : ambient[i].data());
+  }
   Eigen::VectorXd r(rows);
   EXPECT_TRUE(cost.Evaluate(params.data(), r.data(), jac.data()));
+  if (residuals != nullptr) *residuals = r;
   std::vector<Eigen::MatrixXd> out;
   for (std::size_t i = 0; i < blocks.size(); ++i) {
+    if (static_cast<int>(i) == skip) {
+      out.emplace_back();
+      continue;
+    }
     if (manifolds[i] == nullptr) {
       out.emplace_back(ambient[i]);
       continue;

@@ -231,33 +231,12 @@ NormalEquations normalEquations(const ceres::CostFunction& f,
                                 const std::vector<std::vector<double>>& blocks,
                                 const std::vector<const ceres::Manifold*>& manifolds,
                                 int skip = -1) {
-  const int rows = f.num_residuals();
-  std::vector<const double*> params;
-  std::vector<test::RowMatrix> ambient;
-  std::vector<double*> jac;
-  for (const auto& b : blocks) {
-    params.push_back(b.data());
-    ambient.emplace_back(rows, static_cast<int>(b.size()));
-  }
-  for (std::size_t i = 0; i < blocks.size(); ++i) {
-    jac.push_back(static_cast<int>(i) == skip ? nullptr : ambient[i].data());
-  }
-  Eigen::VectorXd r(rows);
-  EXPECT_TRUE(f.Evaluate(params.data(), r.data(), jac.data()));
-  std::vector<Eigen::MatrixXd> J;
-  for (std::size_t i = 0; i < blocks.size(); ++i) {
-    if (static_cast<int>(i) == skip) continue;
-    if (manifolds[i] == nullptr) {
-      J.emplace_back(ambient[i]);
-      continue;
-    }
-    test::RowMatrix plus(manifolds[i]->AmbientSize(), manifolds[i]->TangentSize());
-    manifolds[i]->PlusJacobian(blocks[i].data(), plus.data());
-    J.emplace_back(ambient[i] * plus);
-  }
+  Eigen::VectorXd r;
+  const std::vector<Eigen::MatrixXd> J =
+      test::analyticTangentJacobians(f, blocks, manifolds, &r, skip);
   int n = 0;
   for (const auto& b : J) n += static_cast<int>(b.cols());
-  Eigen::MatrixXd stacked(rows, n);
+  Eigen::MatrixXd stacked(f.num_residuals(), n);
   n = 0;
   for (const auto& b : J) {
     stacked.middleCols(n, b.cols()) = b;

@@ -187,7 +187,6 @@ class TagReprojectionFactor final : public ceres::CostFunction {
   // `with_intrinsics` the intrinsics block must stay constant (7 rows instead of 15; a request
   // for its Jacobian fails the evaluation). Call last.
   bool compressRows(bool with_intrinsics);
-  bool compressed() const { return compressed_columns_ > 0; }
   static constexpr int kMaxCompressedRows = 15;
 
   bool Evaluate(double const* const* parameters, double* residuals,
