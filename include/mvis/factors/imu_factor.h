@@ -43,8 +43,8 @@ namespace mvis {
 
 class ImuFactor final : public ceres::CostFunction {
  public:
-  // Readings taken as calibrated. The preintegration is shared, so re-integrating it (new bias
-  // linearization point) updates the factor.
+  // Readings taken as calibrated. The preintegration is shared and must not change while the
+  // factor exists: its square-root information (L^T with L L^T = P^-1) is taken here.
   explicit ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration);
   // With the intrinsics block as sixth parameter; `intrinsics0`: the linearization point of
   // kFixed. The preintegration gives the raw readings, the covariance
@@ -60,6 +60,7 @@ class ImuFactor final : public ceres::CostFunction {
 
  private:
   std::shared_ptr<const ImuPreintegration> preintegration_;
+  Eigen::Matrix<double, 15, 15> sqrt_information_;
   bool intrinsics_ = false;
   ImuIntrinsicsFrame frame_;
   IntrinsicsLinearization mode_ = IntrinsicsLinearization::kReintegrate;

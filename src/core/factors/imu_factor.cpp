@@ -7,7 +7,8 @@
 namespace mvis {
 
 ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration)
-    : preintegration_(std::move(preintegration)) {
+    : preintegration_(std::move(preintegration)),
+      sqrt_information_(sqrtInformation<15>(preintegration_->covariance())) {
   set_num_residuals(15);
   *mutable_parameter_block_sizes() = {kPoseSize, kSpeedBiasSize, kPoseSize, kSpeedBiasSize,
                                       kGravitySize};
@@ -74,8 +75,7 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   r.segment<3>(O_BG) = bg_j - bg_i;
   r.segment<3>(O_BA) = ba_j - ba_i;
 
-  // Square-root information: L^T with L L^T = P^-1.
-  const Eigen::Matrix<double, 15, 15> sqrt_info = sqrtInformation<15>(pre.covariance());
+  const Eigen::Matrix<double, 15, 15>& sqrt_info = sqrt_information_;
   Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = sqrt_info * r;
   if (jacobians == nullptr) return true;
 
