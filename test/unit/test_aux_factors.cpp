@@ -292,11 +292,13 @@ TEST(GyroFactor, JacobiansMatchCentralDifferences) {
 }
 
 TEST(AuxImuFactor, WithIntrinsicsJacobiansMatchCentralDifferences) {
-  const AuxFixture f = auxFixture(AuxImuModel::kVelocityState, kTrueOffset - 0.002,
-                                  kTrueOffset + 0.001, 1.0, 100.0, true);
-  const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
-  const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
-  EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4);
+  for (auto model : {AuxImuModel::kVelocityState, AuxImuModel::kRigidVelocity}) {
+    const AuxFixture f =
+        auxFixture(model, kTrueOffset - 0.002, kTrueOffset + 0.001, 1.0, 100.0, true);
+    const auto analytic = test::analyticTangentJacobians(*f.factor, f.blocks, f.manifolds);
+    const auto numeric = test::numericTangentJacobians(*f.factor, f.blocks, f.manifolds, 1e-6);
+    EXPECT_LT(test::jacobianMismatch(analytic, numeric), 1e-4) << static_cast<int>(model);
+  }
   // At the true intrinsics, as small as without them (ResidualAtTruthIsFarBelowNoise, 500 Hz).
   const AuxFixture truth =
       auxFixture(AuxImuModel::kVelocityState, kTrueOffset, kTrueOffset, 0.0, 500.0, true);

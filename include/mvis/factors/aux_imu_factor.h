@@ -31,9 +31,11 @@
 // Parameters: pose_i [7], speed_bias_i [9], pose_j [7], speed_bias_j [9], aux_i [9 or 6],
 // aux_j [9 or 6], extrinsic T_A_I [7], time_offset [1], gravity [3] (state_blocks.h), and with
 // its intrinsics estimated the aux IMU's intrinsics block [24] (imu_reintegration.h).
-// Jacobians by forward-mode automatic differentiation in the blocks' tangent spaces (tangent
-// lift convention of state_blocks.h) of the unwhitened residual, whitened after (whitening.h);
-// the deltas' first-order correction on values and derivatives apart.
+// Jacobians by hand in the blocks' tangent spaces (tangent lift convention of state_blocks.h):
+// the residual's derivatives in each end's aux pose and velocity are ImuFactor's (imu_factor.h,
+// with R_G_A, p_G_A, v^A for R, p, v), chained with the ends' derivatives in the base state,
+// extrinsic, time offset, gravity and aux block (aux_end.h); gravity also enters directly
+// (-1/2 R_G_A,i^T T^2 in r_p, -R_G_A,i^T T in r_v). Whitened after (whitening.h).
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -73,9 +75,6 @@ class AuxImuFactor final : public ceres::CostFunction {
   const ImuPreintegration& preintegration() const { return *pre_; }
 
  private:
-  template <typename T>
-  void residual(double const* const* parameters, const ImuDeltas& d, T* r) const;
-
   AuxImuModel model_;
   std::shared_ptr<const ImuPreintegration> pre_;
   BaseMotion base_i_, base_j_;

@@ -19,9 +19,9 @@
 // gravity sensitivity Tg enter, imu_reintegration.h: the readings carry the specific force at
 // the gyroscope, aux_sensors.h; the rotation of the kalibr model is held, being the
 // extrinsic's). A gyroscope's translation does not enter: it is not calibrated
-// (report Table 1). Jacobians by forward-mode automatic differentiation in the blocks' tangent
-// spaces (tangent lift convention of state_blocks.h) of the unwhitened residual, whitened after
-// (whitening.h); the deltas' first-order correction on values and derivatives apart.
+// (report Table 1). Jacobians by hand in the blocks' tangent spaces (tangent lift convention of
+// state_blocks.h): AuxImuFactor's rotation rows (aux_imu_factor.h) chained with the ends' R_G_A
+// (aux_end.h); whitened after (whitening.h).
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -54,9 +54,6 @@ class GyroFactor final : public ceres::CostFunction {
   const ImuPreintegration& preintegration() const { return *pre_; }
 
  private:
-  template <typename T>
-  void residual(double const* const* parameters, const ImuDeltas& d, T* r) const;
-
   std::shared_ptr<const ImuPreintegration> pre_;
   double time_offset0_i_, time_offset0_j_;
   BaseMotion base_i_, base_j_;

@@ -1,38 +1,40 @@
 #include "mvis/factors/aux_imu_factor.h"
 
-#include "base_motion_shift.h"
-#include "delta_correction.h"
+#include <algorithm>
+#include <iterator>
+
+#include "aux_end.h"
+#include "mvis/common/lie.h"
 #include "mvis/factors/state_blocks.h"
-#include "../common/tangent_jet.h"
 #include "whitening.h"
 
 namespace mvis {
 namespace {
 
-using tangent_jet::Mat3;
-using tangent_jet::Vec3;
+// Columns of the unwhitened Jacobian D (15 x kColumns, in the blocks' tangents):
+// [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20, speed_bias_j 21-29, aux_i
+// 30-38 (or 30-35), aux_j 39-47 (or 36-41), [dtheta_e, dp_e] 48-53, t_d 54, gravity 55-57, and the
+// intrinsics 58-81 when they are estimated.
+constexpr int kAuxColumn = 30, kExtrinsicColumn = 48, kGravityColumn = 55, kIntrinsicsColumn = 58;
+constexpr int kColumns = kIntrinsicsColumn + kImuIntrinsicsSize;
 
-// Jet directions: [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20,
-// speed_bias_j 21-29, aux_i 30-38 (or 30-35), aux_j 39-47 (or 36-41), [dtheta_e, dp_e] 48-53,
-// t_d 54, gravity 55-57, and the intrinsics 58-81 when they are estimated.
-constexpr int kDim = 58;
-using Jet = ceres::Jet<double, kDim>;
-using IntrinsicsJet = ceres::Jet<double, kDim + kImuIntrinsicsSize>;
-constexpr int kExtrinsicJet = 48, kTimeOffsetJet = 54, kGravityJet = 55, kIntrinsicsJet = 58;
-
-std::vector<tangent_jet::BlockLayout> layoutOf(AuxImuModel model, bool intrinsics) {
+// The blocks' columns in D in parameter order, into out[10] (the intrinsics' last); returns how
+// many there are without the intrinsics.
+int blockColumns(AuxImuModel model, aux_end::BlockColumns* out) {
   const int a = AuxImuFactor::auxBlockSize(model);
-  std::vector<tangent_jet::BlockLayout> layout = {{0, 6, 7},
-                                                  {6, 9, 9},
-                                                  {15, 6, 7},
-                                                  {21, 9, 9},
-                                                  {30, a, a},
-                                                  {30 + a, a, a},
-                                                  {kExtrinsicJet, 6, 7},
-                                                  {kTimeOffsetJet, 1, 1},
-                                                  {kGravityJet, 3, 3}};
-  if (intrinsics) layout.push_back({kIntrinsicsJet, kImuIntrinsicsSize, kImuIntrinsicsSize});
-  return layout;
+  const aux_end::BlockColumns blocks[] = {
+      {0, 6, 7},
+      {6, 9, 9},
+      {15, 6, 7},
+      {21, 9, 9},
+      {kAuxColumn, a, a},
+      {kAuxColumn + a, a, a},
+      {kExtrinsicColumn, 6, 7},
+      {kExtrinsicColumn + 6, 1, 1},
+      {kGravityColumn, 3, 3},
+      {kIntrinsicsColumn, kImuIntrinsicsSize, kImuIntrinsicsSize}};
+  std::copy(std::begin(blocks), std::end(blocks), out);
+  return 9;  // without the intrinsics
 }
 
 }  // namespace
@@ -48,7 +50,9 @@ AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegr
       time_offset0_j_(time_offset0_j) {
   set_num_residuals(15);
   auto* sizes = mutable_parameter_block_sizes();
-  for (const auto& l : layoutOf(model_, false)) sizes->push_back(l.ambient);
+  aux_end::BlockColumns blocks[10];
+  const int count = blockColumns(model_, blocks);
+  for (int b = 0; b < count; ++b) sizes->push_back(blocks[b].ambient);
   sqrt_information_ = sqrtInformation<15>(pre_->covariance());
 }
 
@@ -69,107 +73,104 @@ AuxImuFactor::AuxImuFactor(AuxImuModel model, std::shared_ptr<const ImuPreintegr
   }
 }
 
-template <typename T>
-void AuxImuFactor::residual(double const* const* parameters, const ImuDeltas& d, T* out) const {
-  using tangent_jet::perturbRotation;
-  using tangent_jet::perturbScalar;
-  using tangent_jet::perturbVector;
-  const ImuPreintegration& pre = *pre_;
-  const bool velocity_state = model_ == AuxImuModel::kVelocityState;
-  const int a = auxBlockSize(model_);
-
-  const Mat3<T> R_i = perturbRotation<T>(poseRotation(parameters[0]), 0);
-  const Vec3<T> p_i = perturbVector<T>(parameters[0] + 4, 3);
-  const Vec3<T> v_i = perturbVector<T>(parameters[1], 6);
-  const Vec3<T> bg_i = perturbVector<T>(parameters[1] + 3, 9);
-  const Vec3<T> ba_i = perturbVector<T>(parameters[1] + 6, 12);
-  const Mat3<T> R_j = perturbRotation<T>(poseRotation(parameters[2]), 15);
-  const Vec3<T> p_j = perturbVector<T>(parameters[2] + 4, 18);
-  const Vec3<T> v_j = perturbVector<T>(parameters[3], 21);
-  const Vec3<T> bg_j = perturbVector<T>(parameters[3] + 3, 24);
-  const Vec3<T> ba_j = perturbVector<T>(parameters[3] + 6, 27);
-  const int bias_at = velocity_state ? 3 : 0;  // b^A_g within the aux block
-  const Vec3<T> abg_i = perturbVector<T>(parameters[4] + bias_at, 30 + bias_at);
-  const Vec3<T> aba_i = perturbVector<T>(parameters[4] + bias_at + 3, 33 + bias_at);
-  const Vec3<T> abg_j = perturbVector<T>(parameters[5] + bias_at, 30 + a + bias_at);
-  const Mat3<T> R_AI = perturbRotation<T>(poseRotation(parameters[6]), kExtrinsicJet);
-  const Vec3<T> p_AI = perturbVector<T>(parameters[6] + 4, kExtrinsicJet + 3);
-  const T t_d = perturbScalar<T>(parameters[7][0], kTimeOffsetJet);
-  const Vec3<T> g = perturbVector<T>(parameters[8], kGravityJet);
-
-  const T delta_i = t_d - T(time_offset0_i_), delta_j = t_d - T(time_offset0_j_);
-  Mat3<T> Rs_i, Rs_j;
-  Vec3<T> ps_i, ps_j;
-  shiftBasePose<T>(base_i_, R_i, p_i, v_i, bg_i, ba_i, g, delta_i, &Rs_i, &ps_i);
-  shiftBasePose<T>(base_j_, R_j, p_j, v_j, bg_j, ba_j, g, delta_j, &Rs_j, &ps_j);
-  const Mat3<T> R_IA = R_AI.transpose();
-  const Mat3<T> RA_i = Rs_i * R_IA;
-  const Mat3<T> RA_j = Rs_j * R_IA;
-  const Vec3<T> pA_i = ps_i - RA_i * p_AI;
-  const Vec3<T> pA_j = ps_j - RA_j * p_AI;
-
-  Vec3<T> vA_i, vA_j;
-  if (velocity_state) {
-    vA_i = perturbVector<T>(parameters[4], 30);
-    vA_j = perturbVector<T>(parameters[5], 30 + a);
-  } else {
-    // Eq. 78 with the base velocity carried to t_k + delta and the aux gyroscope taken as exact.
-    const Vec3<T> p_IA = -(R_IA * p_AI);
-    const Vec3<T> w_i = R_IA * (pre.samples().front().gyro.cast<T>() - abg_i);
-    const Vec3<T> w_j = R_IA * (pre.samples().back().gyro.cast<T>() - abg_j);
-    vA_i = v_i + (R_i * (base_i_.accel.cast<T>() - ba_i) + g) * delta_i +
-           Rs_i * tangent_jet::hatT<T>(w_i) * p_IA;
-    vA_j = v_j + (R_j * (base_j_.accel.cast<T>() - ba_j) + g) * delta_j +
-           Rs_j * tangent_jet::hatT<T>(w_j) * p_IA;
-  }
-
-  Eigen::Matrix<T, kDeltaVariables, 1> x;
-  x.template head<3>() = abg_i;
-  x.template segment<3>(3) = aba_i;
-  for (int k = 0; k < kImuIntrinsicsSize; ++k) {
-    x[6 + k] = intrinsics_
-                   ? tangent_jet::perturbScalarIfPresent<T>(parameters[9][k], kIntrinsicsJet + k)
-                   : T(d.x0[6 + k]);
-  }
-  const CorrectedDeltas<T> deltas = correctDeltas<T>(d, x);
-  const Mat3<T>& dR = deltas.dR;
-  const Vec3<T>& dp = deltas.dp;
-  const Vec3<T>& dv = deltas.dv;
-  const T dT(pre.duration());
-  using P = ImuPreintegration;
-
-  Eigen::Matrix<T, 15, 1> r;
-  r.template segment<3>(P::kRotation) =
-      tangent_jet::logT<T>(Mat3<T>(dR.transpose() * RA_i.transpose() * RA_j));
-  r.template segment<3>(P::kPosition) =
-      RA_i.transpose() * (pA_j - pA_i - vA_i * dT - g * (T(0.5) * dT * dT)) - dp;
-  r.template segment<3>(P::kVelocity) = RA_i.transpose() * (vA_j - vA_i - g * dT) - dv;
-  r.template segment<3>(P::kBiasGyro) = abg_j - abg_i;
-  r.template segment<3>(P::kBiasAccel) =
-      perturbVector<T>(parameters[5] + bias_at + 3, 33 + a + bias_at) - aba_i;
-  Eigen::Map<Eigen::Matrix<T, 15, 1>>{out} = r;  // whitened in Evaluate
-}
-
 bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
                             double** jacobians) const {
-  const int bias_at = model_ == AuxImuModel::kVelocityState ? 3 : 0;
+  using Matrix3 = Eigen::Matrix3d;
+  using Vector3 = Eigen::Vector3d;
+  using P = ImuPreintegration;
+  const bool velocity_state = model_ == AuxImuModel::kVelocityState;
+  const int a = auxBlockSize(model_);
+  const int bias_at = velocity_state ? 3 : 0;  // b^A_g within the aux block
+  const bool jacobian = jacobians != nullptr;
+  const ImuDeltas::Vector30d x = deltaVariables(
+      parameters[4] + bias_at, parameters[4] + bias_at + 3, intrinsics_ ? parameters[9] : nullptr);
   ImuDeltas local;
-  const ImuDeltas* d =
-      &factorDeltas(*pre_, intrinsics_, mode_, fixed_,
-                    deltaVariables(parameters[4] + bias_at, parameters[4] + bias_at + 3,
-                                   intrinsics_ ? parameters[9] : nullptr),
-                    frame_, jacobians != nullptr, &local);
-  if (jacobians == nullptr) {
-    residual<double>(parameters, *d, residuals);
-  } else if (intrinsics_) {
-    IntrinsicsJet r[15];
-    residual<IntrinsicsJet>(parameters, *d, r);
-    tangent_jet::writeJacobians(r, 15, layoutOf(model_, true), residuals, jacobians);
-  } else {
-    Jet r[15];
-    residual<Jet>(parameters, *d, r);
-    tangent_jet::writeJacobians(r, 15, layoutOf(model_, false), residuals, jacobians);
+  const ImuDeltas& d = factorDeltas(*pre_, intrinsics_, mode_, fixed_, x, frame_, jacobian, &local);
+
+  aux_end::Inputs in;
+  in.R_AI = poseRotation(parameters[6]).toRotationMatrix();
+  in.p_AI = posePosition(parameters[6]);
+  in.g = Vector3(parameters[8]);
+  in.velocity_state = velocity_state;
+  in.motion = &base_i_;
+  in.pose = parameters[0];
+  in.speed_bias = parameters[1];
+  in.delta = parameters[7][0] - time_offset0_i_;
+  in.aux = parameters[4];
+  in.aux_gyro = pre_->samples().front().gyro;
+  const aux_end::End end_i = aux_end::evaluate(in, jacobian);
+  in.motion = &base_j_;
+  in.pose = parameters[2];
+  in.speed_bias = parameters[3];
+  in.delta = parameters[7][0] - time_offset0_j_;
+  in.aux = parameters[5];
+  in.aux_gyro = pre_->samples().back().gyro;
+  const aux_end::End end_j = aux_end::evaluate(in, jacobian);
+
+  // The deltas corrected to x to first order about where they were integrated (Eq. 32-34).
+  const Eigen::Matrix<double, 9, 1> lin = d.J * (x - d.x0);
+  const Vector3 phi = lin.head<3>();
+  const Matrix3 dR = d.dR * lie::expSO3(phi);
+  const double T = pre_->duration();
+  const Vector3& g = in.g;
+  const Matrix3 Rt_i = end_i.R.transpose();
+  const Matrix3 E = dR.transpose() * Rt_i * end_j.R;
+  const Vector3 e = lie::logSO3(E);
+  const Vector3 a_p = Rt_i * (end_j.p - end_i.p - end_i.v * T - 0.5 * T * T * g);
+  const Vector3 a_v = Rt_i * (end_j.v - end_i.v - g * T);
+  Eigen::Map<Eigen::Matrix<double, 15, 1>> r(residuals);
+  r.segment<3>(P::kRotation) = e;
+  r.segment<3>(P::kPosition) = a_p - (d.dp + lin.segment<3>(3));
+  r.segment<3>(P::kVelocity) = a_v - (d.dv + lin.tail<3>());
+  r.segment<3>(P::kBiasGyro) = Vector3(parameters[5] + bias_at) - Vector3(parameters[4] + bias_at);
+  r.segment<3>(P::kBiasAccel) =
+      Vector3(parameters[5] + bias_at + 3) - Vector3(parameters[4] + bias_at + 3);
+  if (!jacobian) {
+    whiten<15>(sqrt_information_, parameter_block_sizes(), residuals, nullptr);
+    return true;
   }
+
+  // The residual's derivatives in each end's (theta_A, p_A, v_A), as ImuFactor's in its states,
+  // chained with the ends' (aux_end.h); then gravity's and the deltas' variables' own terms.
+  const Matrix3 Jr_inv_e = lie::rightJacobianInvSO3(e);
+  Eigen::Matrix<double, 15, 9> B_i = Eigen::Matrix<double, 15, 9>::Zero();
+  Eigen::Matrix<double, 15, 9> B_j = Eigen::Matrix<double, 15, 9>::Zero();
+  B_i.block<3, 3>(P::kRotation, 0) = -Jr_inv_e * end_j.R.transpose() * end_i.R;
+  B_i.block<3, 3>(P::kPosition, 0) = lie::hat(a_p);
+  B_i.block<3, 3>(P::kPosition, 3) = -Rt_i;
+  B_i.block<3, 3>(P::kPosition, 6) = -T * Rt_i;
+  B_i.block<3, 3>(P::kVelocity, 0) = lie::hat(a_v);
+  B_i.block<3, 3>(P::kVelocity, 6) = -Rt_i;
+  B_j.block<3, 3>(P::kRotation, 0) = Jr_inv_e;
+  B_j.block<3, 3>(P::kPosition, 3) = Rt_i;
+  B_j.block<3, 3>(P::kVelocity, 6) = Rt_i;
+  const Eigen::Matrix<double, 15, aux_end::kColumns> M_i = B_i * end_i.J;
+  const Eigen::Matrix<double, 15, aux_end::kColumns> M_j = B_j * end_j.J;
+  constexpr int kShared = aux_end::kAux - aux_end::kE;  // extrinsic, t_d, gravity
+  Eigen::Matrix<double, 15, kColumns> D = Eigen::Matrix<double, 15, kColumns>::Zero();
+  D.leftCols<15>() = M_i.leftCols<15>();
+  D.middleCols<15>(15) = M_j.leftCols<15>();
+  D.middleCols<kShared>(kExtrinsicColumn) =
+      M_i.middleCols<kShared>(aux_end::kE) + M_j.middleCols<kShared>(aux_end::kE);
+  D.middleCols<3>(kAuxColumn) = M_i.rightCols<3>();
+  D.middleCols<3>(kAuxColumn + a) = M_j.rightCols<3>();
+  D.block<3, 3>(P::kPosition, kGravityColumn) -= 0.5 * T * T * Rt_i;
+  D.block<3, 3>(P::kVelocity, kGravityColumn) -= T * Rt_i;
+  Eigen::Matrix<double, 9, kDeltaVariables> Dx;
+  Dx.topRows<3>() = -Jr_inv_e * E.transpose() * lie::rightJacobianSO3(phi) * d.J.topRows<3>();
+  Dx.bottomRows<6>() = -d.J.bottomRows<6>();
+  D.block<9, 6>(0, kAuxColumn + bias_at) += Dx.leftCols<6>();
+  if (intrinsics_) D.block<9, kImuIntrinsicsSize>(0, kIntrinsicsColumn) = Dx.rightCols<24>();
+  const Matrix3 I = Matrix3::Identity();
+  for (int k = 0; k < 2; ++k) {  // the bias random walks: b^A_j - b^A_i
+    const int row = k == 0 ? P::kBiasGyro : P::kBiasAccel;
+    D.block<3, 3>(row, kAuxColumn + bias_at + 3 * k) -= I;
+    D.block<3, 3>(row, kAuxColumn + a + bias_at + 3 * k) += I;
+  }
+
+  aux_end::BlockColumns blocks[10];
+  const int count = blockColumns(model_, blocks) + (intrinsics_ ? 1 : 0);
+  aux_end::writeBlocks(D, blocks, count, jacobians);
   whiten<15>(sqrt_information_, parameter_block_sizes(), residuals, jacobians);
   return true;
 }

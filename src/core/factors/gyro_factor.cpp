@@ -1,36 +1,20 @@
 #include "mvis/factors/gyro_factor.h"
 
-#include "base_motion_shift.h"
-#include "delta_correction.h"
+#include "aux_end.h"
+#include "mvis/common/lie.h"
 #include "mvis/factors/state_blocks.h"
-#include "../common/tangent_jet.h"
 #include "whitening.h"
 
 namespace mvis {
 namespace {
 
-using tangent_jet::Mat3;
-using tangent_jet::Vec3;
-
-// Jet directions: [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20,
-// speed_bias_j 21-29, bias_i 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39, and Dw 40-45,
-// Tg 46-54 when the intrinsics are estimated (the rest of that block does not enter).
-constexpr int kDim = 40, kDwJet = 40, kTgJet = 46;
-using Jet = ceres::Jet<double, kDim>;
-using IntrinsicsJet = ceres::Jet<double, kDim + 15>;
-const std::vector<tangent_jet::BlockLayout> kLayout = {
-    {0, 6, 7}, {6, 9, 9}, {15, 6, 7}, {21, 9, 9}, {30, 3, 3}, {33, 3, 3}, {36, 3, 4}, {39, 1, 1}};
-
-// Writes the Dw and Tg columns of the intrinsics block's Jacobian (the rest zero).
-void writeIntrinsicsJacobian(const IntrinsicsJet* r, double* jacobian) {
-  using L = ImuIntrinsicsLayout;
-  for (int i = 0; i < 6; ++i) {
-    double* row = jacobian + kImuIntrinsicsSize * i;
-    std::fill(row, row + kImuIntrinsicsSize, 0.0);
-    for (int k = 0; k < 6; ++k) row[L::kDw + k] = r[i].v[kDwJet + k];
-    for (int k = 0; k < 9; ++k) row[L::kTg + k] = r[i].v[kTgJet + k];
-  }
-}
+// Columns of the unwhitened Jacobian D (6 x kColumns, in the blocks' tangents):
+// [dtheta_i, dp_i] 0-5, speed_bias_i 6-14, [dtheta_j, dp_j] 15-20, speed_bias_j 21-29, bias_i
+// 30-32, bias_j 33-35, extrinsic dtheta 36-38, t_d 39.
+constexpr int kBiasColumn = 30, kExtrinsicColumn = 36, kTimeOffsetColumn = 39, kColumns = 40;
+const aux_end::BlockColumns kLayout[] = {{0, 6, 7},  {6, 9, 9},  {15, 6, 7}, {21, 9, 9},
+                                         {30, 3, 3}, {33, 3, 3}, {36, 3, 4}, {39, 1, 1}};
+constexpr int kBlocks = 8;
 
 }  // namespace
 
@@ -71,63 +55,74 @@ GyroFactor::GyroFactor(std::shared_ptr<const ImuPreintegration> pre, double time
   }
 }
 
-template <typename T>
-void GyroFactor::residual(double const* const* parameters, const ImuDeltas& d, T* out) const {
-  using tangent_jet::perturbRotation;
-  using tangent_jet::perturbScalar;
-  using tangent_jet::perturbVector;
-  const Mat3<T> R_i = perturbRotation<T>(poseRotation(parameters[0]), 0);
-  const Vec3<T> bg_i = perturbVector<T>(parameters[1] + 3, 9);
-  const Mat3<T> R_j = perturbRotation<T>(poseRotation(parameters[2]), 15);
-  const Vec3<T> bg_j = perturbVector<T>(parameters[3] + 3, 24);
-  const Vec3<T> abg_i = perturbVector<T>(parameters[4], 30);
-  const Vec3<T> abg_j = perturbVector<T>(parameters[5], 33);
-  const Mat3<T> R_AI = perturbRotation<T>(
-      Eigen::Quaterniond(Eigen::Map<const Eigen::Quaterniond>(parameters[6])), 36);
-  const T t_d = perturbScalar<T>(parameters[7][0], 39);
-  const T delta_i = t_d - T(time_offset0_i_), delta_j = t_d - T(time_offset0_j_);
-  const Vec3<T> unused = Vec3<T>::Zero();
-  Mat3<T> Rs_i, Rs_j;
-  shiftBasePose<T>(base_i_, R_i, unused, unused, bg_i, unused, unused, delta_i, &Rs_i, nullptr);
-  shiftBasePose<T>(base_j_, R_j, unused, unused, bg_j, unused, unused, delta_j, &Rs_j, nullptr);
-  const Mat3<T> RA_i = Rs_i * R_AI.transpose();
-  const Mat3<T> RA_j = Rs_j * R_AI.transpose();
-  Eigen::Matrix<T, kDeltaVariables, 1> x;
-  for (int k = 0; k < kDeltaVariables; ++k) x[k] = T(d.x0[k]);
-  x.template head<3>() = abg_i;
-  for (int k = 0; intrinsics_ && k < 6; ++k) {
-    x[6 + ImuIntrinsicsLayout::kDw + k] = tangent_jet::perturbScalarIfPresent<T>(
-        parameters[8][ImuIntrinsicsLayout::kDw + k], kDwJet + k);
-  }
-  for (int k = 0; intrinsics_ && k < 9; ++k) {
-    x[6 + ImuIntrinsicsLayout::kTg + k] = tangent_jet::perturbScalarIfPresent<T>(
-        parameters[8][ImuIntrinsicsLayout::kTg + k], kTgJet + k);
-  }
-  const Mat3<T> dR = correctDeltas<T>(d, x).dR;
-  Eigen::Matrix<T, 6, 1> r;
-  r.template head<3>() = tangent_jet::logT<T>(Mat3<T>(dR.transpose() * RA_i.transpose() * RA_j));
-  r.template tail<3>() = abg_j - abg_i;
-  Eigen::Map<Eigen::Matrix<T, 6, 1>>{out} = r;  // whitened in Evaluate
-}
-
 bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
                           double** jacobians) const {
+  using Matrix3 = Eigen::Matrix3d;
+  using Vector3 = Eigen::Vector3d;
+  using L = ImuIntrinsicsLayout;
+  const bool jacobian = jacobians != nullptr;
   ImuDeltas local;
-  const ImuDeltas* d =
-      &factorDeltas(*pre_, intrinsics_, mode_, fixed_,
-                    deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr),
-                    frame_, jacobians != nullptr, &local);
-  if (jacobians == nullptr) {
-    residual<double>(parameters, *d, residuals);
-  } else if (intrinsics_) {
-    IntrinsicsJet r[6];
-    residual<IntrinsicsJet>(parameters, *d, r);
-    tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
-    if (jacobians[8] != nullptr) writeIntrinsicsJacobian(r, jacobians[8]);
-  } else {
-    Jet r[6];
-    residual<Jet>(parameters, *d, r);
-    tangent_jet::writeJacobians(r, 6, kLayout, residuals, jacobians);
+  const ImuDeltas& d =
+      factorDeltas(*pre_, intrinsics_, mode_, fixed_,
+                   deltaVariables(parameters[4], nullptr, intrinsics_ ? parameters[8] : nullptr),
+                   frame_, jacobian, &local);
+  // The deltas' variables: the bias of state i and, estimated, Dw and Tg; the rest of the
+  // intrinsics block does not enter (held where the deltas were integrated).
+  ImuDeltas::Vector30d x = d.x0;
+  x.head<3>() = Vector3(parameters[4]);
+  for (int k = 0; intrinsics_ && k < 6; ++k) x[6 + L::kDw + k] = parameters[8][L::kDw + k];
+  for (int k = 0; intrinsics_ && k < 9; ++k) x[6 + L::kTg + k] = parameters[8][L::kTg + k];
+
+  aux_end::Inputs in;
+  in.R_AI =
+      Eigen::Quaterniond(Eigen::Map<const Eigen::Quaterniond>(parameters[6])).toRotationMatrix();
+  in.position = false;
+  in.motion = &base_i_;
+  in.pose = parameters[0];
+  in.speed_bias = parameters[1];
+  in.delta = parameters[7][0] - time_offset0_i_;
+  const aux_end::End end_i = aux_end::evaluate(in, jacobian);
+  in.motion = &base_j_;
+  in.pose = parameters[2];
+  in.speed_bias = parameters[3];
+  in.delta = parameters[7][0] - time_offset0_j_;
+  const aux_end::End end_j = aux_end::evaluate(in, jacobian);
+
+  const Vector3 phi = d.J.topRows<3>() * (x - d.x0);
+  const Matrix3 dR = d.dR * lie::expSO3(phi);
+  const Matrix3 E = dR.transpose() * end_i.R.transpose() * end_j.R;
+  const Vector3 e = lie::logSO3(E);
+  Eigen::Map<Eigen::Matrix<double, 6, 1>> r(residuals);
+  r.head<3>() = e;
+  r.tail<3>() = Vector3(parameters[5]) - Vector3(parameters[4]);
+  if (!jacobian) {
+    whiten<6>(sqrt_information_, parameter_block_sizes(), residuals, nullptr);
+    return true;
+  }
+
+  // As AuxImuFactor's rotation rows (aux_imu_factor.h), chained with the ends' (aux_end.h).
+  const Matrix3 Jr_inv_e = lie::rightJacobianInvSO3(e);
+  const Eigen::Matrix<double, 3, aux_end::kColumns> M_i =
+      -Jr_inv_e * end_j.R.transpose() * end_i.R * end_i.J.topRows<3>();
+  const Eigen::Matrix<double, 3, aux_end::kColumns> M_j = Jr_inv_e * end_j.J.topRows<3>();
+  Eigen::Matrix<double, 6, kColumns> D = Eigen::Matrix<double, 6, kColumns>::Zero();
+  D.block<3, 15>(0, 0) = M_i.leftCols<15>();
+  D.block<3, 15>(0, 15) = M_j.leftCols<15>();
+  D.block<3, 3>(0, kExtrinsicColumn) =
+      M_i.middleCols<3>(aux_end::kE) + M_j.middleCols<3>(aux_end::kE);
+  D.block<3, 1>(0, kTimeOffsetColumn) = M_i.col(aux_end::kTd) + M_j.col(aux_end::kTd);
+  const Eigen::Matrix<double, 3, kDeltaVariables> Dx =
+      -Jr_inv_e * E.transpose() * lie::rightJacobianSO3(phi) * d.J.topRows<3>();
+  D.block<3, 3>(0, kBiasColumn) += Dx.leftCols<3>();
+  D.block<3, 3>(3, kBiasColumn) = -Matrix3::Identity();
+  D.block<3, 3>(3, kBiasColumn + 3) = Matrix3::Identity();
+
+  aux_end::writeBlocks(D, kLayout, kBlocks, jacobians);
+  if (intrinsics_ && jacobians[8] != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 6, kImuIntrinsicsSize, Eigen::RowMajor>> out(jacobians[8]);
+    out.setZero();
+    out.block<3, 6>(0, L::kDw) = Dx.middleCols<6>(6 + L::kDw);
+    out.block<3, 9>(0, L::kTg) = Dx.middleCols<9>(6 + L::kTg);
   }
   whiten<6>(sqrt_information_, parameter_block_sizes(), residuals, jacobians);
   return true;
