@@ -22,12 +22,13 @@
 //
 // Re-integration: the deltas dR, dp, dv of ImuPreintegration (same midpoint scheme) computed from
 // the raw readings at given biases and intrinsics, x = [b_g(3) b_a(3) intrinsics(24)]
-// (kDeltaVariables), with their exact derivatives in x by forward-mode automatic
-// differentiation: J (9 x 30), rows [dtheta; dp; dv] with dR(x + d) = dR(x) Exp(J_theta d) to
-// first order. A factor evaluated at x re-integrates there (no first-order bias correction, the
-// report's remedy for the local minimum of a fixed intrinsics linearization); the same struct
-// also serves first-order correction about a fixed x0 (correct()), which is what preintegration
-// with fixed linearization does.
+// (kDeltaVariables), with their exact derivatives in x propagated by hand along the integration
+// (each reading's corrected values differentiated in x, then carried through the midpoint step):
+// J (9 x 30), rows [dtheta; dp; dv] with dR(x + d) = dR(x) Exp(J_theta d) to first order. A factor
+// evaluated at x re-integrates there (no first-order bias correction, the report's remedy for the
+// local minimum of a fixed intrinsics linearization); the same struct also serves first-order
+// correction about a fixed x0 (correct()), which is what preintegration with fixed linearization
+// does.
 #pragma once
 
 #include <Eigen/Core>

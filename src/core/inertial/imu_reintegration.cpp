@@ -1,7 +1,5 @@
 #include "mvis/inertial/imu_reintegration.h"
 
-#include <ceres/jet.h>
-
 #include "../common/tangent_jet.h"
 #include "mvis/common/lie.h"
 
@@ -70,6 +68,135 @@ void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T
     w0 = w1;
     a0 = a1;
   }
+}
+
+// A corrected reading and its derivatives in x (3 x 30 each).
+struct CorrectedReading {
+  Eigen::Vector3d w, a;
+  Eigen::Matrix<double, 3, kDeltaVariables> W, A;
+};
+
+// integrate<double>'s corrections, with their derivatives by hand (see reintegrate's comment).
+class ReadingCorrection {
+ public:
+  ReadingCorrection(const Eigen::Matrix<double, 30, 1>& x, const ImuIntrinsicsFrame& frame)
+      : frame_(frame), bg_(x.head<3>()), ba_(x.segment<3>(3)) {
+    const double* in = x.data() + 6;
+    const Eigen::Vector3d theta(in + L::kAccRotation);
+    R_ = frame.R0 * expT<double>(theta);  // as integrate, to the last bit
+    Jr_theta_ = lie::rightJacobianSO3(theta);
+    Uw_ = upperT<double>(in + L::kDw);
+    Ua_ = upperT<double>(in + L::kDa);
+    // As integrate: kalibr's triangles are the transposes of the stored upper ones.
+    Dw_ = frame.kalibr ? Eigen::Matrix3d(Uw_.transpose()) : Uw_;
+    Da_ = frame.kalibr ? Eigen::Matrix3d(Ua_.transpose()) : Ua_;
+    G_ = frame.kalibr ? Eigen::Matrix3d(R_ * Dw_) : Dw_;
+    M_.setZero();
+    if (!frame.gyro_only) M_ = frame.kalibr ? Da_ : Eigen::Matrix3d(R_ * Da_);
+    for (int k = 0; k < 9; ++k) Tg_(k / 3, k % 3) = in[L::kTg + k];
+  }
+
+  void correct(const ImuMeasurement& m, CorrectedReading* out) const {
+    constexpr int kBg = 0, kBa = 3, kDw = 6 + L::kDw, kDa = 6 + L::kDa, kTg = 6 + L::kTg,
+                  kTheta = 6 + L::kAccRotation;
+    out->A.setZero();
+    out->W.setZero();
+    Eigen::Vector3d f;  // the specific force Tg multiplies
+    if (frame_.gyro_only) {
+      out->a.setZero();
+      f = m.accel;
+    } else {
+      const Eigen::Vector3d u = m.accel - ba_;
+      out->a = M_ * u;
+      f = out->a;
+      out->A.middleCols<3>(kBa) = -M_;
+      for (int c = 0; c < 3; ++c) {
+        for (int r = 0; r <= c; ++r) {
+          // rpng a = R U u: R e_r u_c; kalibr a = U^T u: e_c u_r.
+          auto col = out->A.col(kDa + upperIndex(r, c));
+          if (frame_.kalibr) {
+            col[c] = u[r];
+          } else {
+            col = R_.col(r) * u[c];
+          }
+        }
+      }
+      if (!frame_.kalibr) out->A.middleCols<3>(kTheta) = -R_ * lie::hat(Da_ * u) * Jr_theta_;
+      out->W = -G_ * Tg_ * out->A;
+    }
+    const Eigen::Vector3d s = m.gyro - bg_ - Tg_ * f;
+    out->w = G_ * s;
+    out->W.middleCols<3>(kBg) -= G_;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) out->W.col(kTg + 3 * r + c) -= G_.col(r) * f[c];
+    }
+    for (int c = 0; c < 3; ++c) {
+      for (int r = 0; r <= c; ++r) {
+        // rpng w = U s: e_r s_c; kalibr w = R U^T s: R e_c s_r.
+        auto col = out->W.col(kDw + upperIndex(r, c));
+        if (frame_.kalibr) {
+          col += R_.col(c) * s[r];
+        } else {
+          col[r] += s[c];
+        }
+      }
+    }
+    if (frame_.kalibr) out->W.middleCols<3>(kTheta) -= R_ * lie::hat(Dw_ * s) * Jr_theta_;
+  }
+
+ private:
+  const ImuIntrinsicsFrame& frame_;
+  Eigen::Vector3d bg_, ba_;
+  Eigen::Matrix3d R_, Jr_theta_, Uw_, Ua_, Dw_, Da_, G_, M_, Tg_;
+};
+
+// integrate<double> with the deltas' derivatives in x propagated along (rows [theta; p; v] of
+// out->J, theta the right tangent of dR). Per interval, with E = Exp(phi):
+//   Theta' = E^T Theta + Jr(phi) dphi/dx
+//   d a / dx = 1/2 (dR (A_0 - [a_0]x Theta) + dR' (A_1 - [a_1]x Theta'))
+//   P' = P + V dt + 1/2 dt^2 d a / dx,   V' = V + dt d a / dx
+// with A_0, A_1 the readings' derivatives (ReadingCorrection).
+void integrateWithJacobian(const std::vector<ImuMeasurement>& samples,
+                           const Eigen::Matrix<double, 30, 1>& x, const ImuIntrinsicsFrame& frame,
+                           ImuDeltas* out) {
+  using Jacobian = Eigen::Matrix<double, 3, kDeltaVariables>;
+  Eigen::Matrix3d dR = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d dp = Eigen::Vector3d::Zero(), dv = Eigen::Vector3d::Zero();
+  Jacobian Theta = Jacobian::Zero(), P = Jacobian::Zero(), V = Jacobian::Zero();
+  if (!samples.empty()) {
+    const ReadingCorrection correction(x, frame);
+    CorrectedReading r0, r1;
+    correction.correct(samples.front(), &r0);
+    for (std::size_t k = 1; k < samples.size(); ++k) {
+      correction.correct(samples[k], &r1);
+      const double dt = toSeconds(samples[k].stamp_ns - samples[k - 1].stamp_ns);
+      if (dt > 0.0) {
+        const Eigen::Vector3d phi = (r0.w + r1.w) * (0.5 * dt);
+        const Eigen::Matrix3d E = expT<double>(phi);
+        const Eigen::Matrix3d R1 = dR * E;
+        const Jacobian Theta1 =
+            E.transpose() * Theta + lie::rightJacobianSO3(phi) * ((r0.W + r1.W) * (0.5 * dt));
+        if (!frame.gyro_only) {
+          const Eigen::Vector3d a = (dR * r0.a + R1 * r1.a) * 0.5;
+          const Jacobian A =
+              0.5 * (dR * (r0.A - lie::hat(r0.a) * Theta) + R1 * (r1.A - lie::hat(r1.a) * Theta1));
+          dp += dv * dt + a * (0.5 * dt * dt);
+          P += V * dt + A * (0.5 * dt * dt);
+          dv += a * dt;
+          V += A * dt;
+        }
+        dR = R1;
+        Theta = Theta1;
+      }
+      std::swap(r0, r1);
+    }
+  }
+  out->dR = dR;
+  out->dp = dp;
+  out->dv = dv;
+  out->J.topRows<3>() = Theta;
+  out->J.middleRows<3>(3) = P;
+  out->J.bottomRows<3>() = V;
 }
 
 }  // namespace
@@ -146,27 +273,7 @@ ImuDeltas reintegrate(const std::vector<ImuMeasurement>& samples, const ImuDelta
     integrate<double>(samples, x, frame, &out.dR, &out.dp, &out.dv);
     return out;
   }
-  using Jet = ceres::Jet<double, kDeltaVariables>;
-  Eigen::Matrix<Jet, kDeltaVariables, 1> xj;
-  for (int i = 0; i < kDeltaVariables; ++i) xj[i] = Jet(x[i], i);
-  Mat3<Jet> dR;
-  Vec3<Jet> dp, dv;
-  integrate<Jet>(samples, xj, frame, &dR, &dp, &dv);
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) out.dR(r, c) = dR(r, c).a;
-    out.dp[r] = dp[r].a;
-    out.dv[r] = dv[r].a;
-    out.J.row(3 + r) = dp[r].v.transpose();
-    out.J.row(6 + r) = dv[r].v.transpose();
-  }
-  // Right-tangent derivative of the rotation: dR^T d(dR)/dx_k = hat(J_theta column k).
-  for (int k = 0; k < kDeltaVariables; ++k) {
-    Eigen::Matrix3d D;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) D(r, c) = dR(r, c).v[k];
-    }
-    out.J.block<3, 1>(0, k) = lie::vee(out.dR.transpose() * D);
-  }
+  integrateWithJacobian(samples, x, frame, &out);
   return out;
 }
 
