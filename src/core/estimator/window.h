@@ -57,11 +57,13 @@ class Window {
   const std::vector<EstimatorState>& past() const { return past_; }
 
  private:
+  static constexpr double kFirstTrustRadius = 1e4, kLargestStartRadius = 1e8;
   const EstimatorOptions& options_;
   std::unique_ptr<ceres::Problem> problem_;
   std::deque<std::unique_ptr<State>> states_;
   std::vector<EstimatorState> past_;
   PoseManifold pose_manifold_;
+  double trust_radius_ = kFirstTrustRadius;  // where the next solve's LM starts (solve())
 };
 
 }  // namespace estimator_internal
