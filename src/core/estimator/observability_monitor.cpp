@@ -82,17 +82,25 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
   // Chunks of about 25 ms: their mean rates, and angular accelerations between them. The
   // gyroscope's noise makes each alpha noisy (variance s2 per axis), which would add 2 s2 I to
   // hat(alpha)^T hat(alpha) on average: it is taken out again, or noise alone would look like
-  // rotation about every axis.
+  // rotation about every axis. A chunk's mean rate has the noise variance density^2 / T over its
+  // T = (readings) x (their mean period): the interval's last chunk is often shorter (taking
+  // every chunk as 25 ms, a rig that did not turn showed 1.6x the noise's |alpha|^2 and a
+  // gyroscope's time offset looked observable).
   constexpr double kChunk = 0.025;
   const double density = rig_.inertial[0].noise.gyroscope_noise_density;
-  std::vector<std::pair<double, Eigen::Vector3d>> chunks;  // (mid time [s], mean rate)
+  struct Chunk {
+    double mid;         // [s]
+    Eigen::Vector3d w;  // mean rate
+    int n;              // readings
+  };
+  std::vector<Chunk> chunks;
   double t0 = toSeconds(readings.front().stamp_ns - a), sum_t = 0.0;
   Eigen::Vector3d sum_w = Eigen::Vector3d::Zero();
   int n = 0;
   for (const auto& m : readings) {
     const double t = toSeconds(m.stamp_ns - a);
     if (n > 0 && t - t0 > kChunk) {
-      chunks.emplace_back(sum_t / n, sum_w / n);
+      chunks.push_back({sum_t / n, sum_w / n, n});
       t0 = t;
       sum_t = 0.0;
       sum_w.setZero();
@@ -102,19 +110,28 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
     sum_w += m.gyro - bias_gyro;
     ++n;
   }
-  if (n > 0) chunks.emplace_back(sum_t / n, sum_w / n);
+  if (n > 0) chunks.push_back({sum_t / n, sum_w / n, n});
+  const double period = readings.size() > 1
+                            ? toSeconds(readings.back().stamp_ns - readings.front().stamp_ns) /
+                                  static_cast<double>(readings.size() - 1)
+                            : kChunk;
   MotionInformation info;
   info.t = b;
   for (std::size_t i = 0; i + 1 < chunks.size(); ++i) {
-    const double dt = chunks[i + 1].first - chunks[i].first;
+    const double dt = chunks[i + 1].mid - chunks[i].mid;
     if (!(dt > 0.0)) continue;
-    const Eigen::Vector3d w = 0.5 * (chunks[i].second + chunks[i + 1].second);
-    const Eigen::Vector3d alpha = (chunks[i + 1].second - chunks[i].second) / dt;
-    const double s2 = 2.0 * density * density / (kChunk * dt * dt);
+    const Eigen::Vector3d w = 0.5 * (chunks[i].w + chunks[i + 1].w);
+    const Eigen::Vector3d alpha = (chunks[i + 1].w - chunks[i].w) / dt;
+    const double s2 = density * density *
+                      (1.0 / (chunks[i].n * period) + 1.0 / (chunks[i + 1].n * period)) / (dt * dt);
     const Eigen::Matrix3d Jp = lie::hat(alpha) + lie::hat(w) * lie::hat(w);
     info.translation += dt * (Jp.transpose() * Jp - 2.0 * s2 * Eigen::Matrix3d::Identity());
     info.rotation += dt * lie::hat(w).transpose() * lie::hat(w);
-    info.time_offset += dt * std::max(alpha.squaredNorm() - 3.0 * s2, 0.0);
+    // |alpha + n|^2 - 3 s2 is unbiased, with variance 6 s2^2 + 4 s2 |alpha|^2 (Gaussian n); not
+    // clipped per chunk (spatialQuantities takes the sum's lower bound).
+    const double e = alpha.squaredNorm() - 3.0 * s2;
+    info.time_offset += dt * e;
+    info.time_offset_var += dt * dt * (6.0 * s2 * s2 + 4.0 * s2 * std::max(e, 0.0));
   }
   motion_.push_back(info);
   const TimeNs horizon = fromSeconds(options_.observability_horizon_s);
@@ -216,7 +233,15 @@ void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
     sum.translation += m.translation;
     sum.rotation += m.rotation;
     sum.time_offset += m.time_offset;
+    sum.time_offset_var += m.time_offset_var;
   }
+  // A gyroscope's time offset is told by the angular acceleration alone: what the noisy rates
+  // show of it is counted at its lower 3-sigma bound (adjacent chunks share a mean, hence the
+  // doubled variance), so that a rig that does not turn gives none. Translation-only motion,
+  // with the noise's share clipped per chunk instead: the gyroscope's time offset estimated and
+  // 3-20 sigma off.
+  const double time_offset_information =
+      std::max(sum.time_offset - 3.0 * std::sqrt(2.0 * sum.time_offset_var), 0.0);
   std::vector<Quantity>& quantities = *out;
   // Translations (cameras and aux IMUs): the relative acceleration of two rigidly attached
   // points is (hat(alpha) + hat(w)^2) p, measured with the accelerometer's noise. Extrinsic
@@ -253,7 +278,7 @@ void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
       quantities.push_back(
           {name, "time offset", a->time_offset, 0, 1,
            Eigen::VectorXd::Constant(1, a->prior.time_offset), Eigen::Matrix3d::Identity(),
-           Eigen::MatrixXd::Constant(1, 1, sum.time_offset / (density * density))});
+           Eigen::MatrixXd::Constant(1, 1, time_offset_information / (density * density))});
     }
   }
 }

@@ -86,7 +86,8 @@ class ObservabilityMonitor {
     TimeNs t = 0;                                           // the later state's time
     Eigen::Matrix3d translation = Eigen::Matrix3d::Zero();  // int (hat(a) + hat(w)^2)^T (...) dt
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
-    double time_offset = 0.0;                               // int |alpha|^2 dt
+    double time_offset = 0.0;      // int |alpha|^2 dt, less the noise's share (may be < 0)
+    double time_offset_var = 0.0;  // that estimate's variance from the gyroscope's noise
   };
   // Time-weighted moments of one sensor's readings between two window states.
   struct ReadingMoments {
