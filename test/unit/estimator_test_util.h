@@ -113,11 +113,14 @@ inline void feed(const SimRun& run, Estimator* estimator) {
 // The estimator from `guess` over the whole run, with its calibration covariance computed;
 // null (and a test failure) if it did not start or initialize.
 inline std::unique_ptr<Estimator> runFrom(const Rig& guess, const SimRun& run,
-                                          const EstimatorOptions& options) {
+                                          const EstimatorOptions& options,
+                                          EstimatorUpdate* last = nullptr) {
   auto created = Estimator::create(guess, options);
   EXPECT_TRUE(created.ok()) << created.status().message();
   if (!created.ok()) return nullptr;
   std::unique_ptr<Estimator> estimator = std::move(created).value();
+  if (last != nullptr)
+    estimator->setUpdateCallback([last](const EstimatorUpdate& u) { *last = u; });
   feed(run, estimator.get());
   EXPECT_TRUE(estimator->initialized())
       << estimator->status() << "; last restart: " << estimator->lastRestart().reason;

@@ -152,15 +152,10 @@ TEST(Estimator, TranslationOnlyMotionHoldsTheGyroscopesTimeOffset) {
   const SimRun run = simulate("sim_vi_rig", 20.0, 4, MotionKind::kTranslationOnly);
   EstimatorOptions options = deterministic();
   options.pixel_sigma_px = 0.5;
-  auto created = Estimator::create(run.guess, options);
-  ASSERT_TRUE(created.ok());
-  Estimator& estimator = *created.value();
   EstimatorUpdate last;
-  estimator.setUpdateCallback([&](const EstimatorUpdate& u) { last = u; });
-  feed(run, &estimator);
-  ASSERT_TRUE(estimator.initialized()) << estimator.status();
-  ASSERT_TRUE(estimator.computeCovariance().ok());
-  const Rig estimate = estimator.calibration();
+  const auto estimator = runFrom(run.guess, run, options, &last);
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
   for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
     const InertialSensor& guess = run.guess.inertial[i];
     const InertialSensor& est = estimate.inertial[i];
