@@ -92,20 +92,19 @@ bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
   in.p_AI = posePosition(parameters[6]);
   in.g = Vector3(parameters[8]);
   in.velocity_state = velocity_state;
-  in.motion = &base_i_;
-  in.pose = parameters[0];
-  in.speed_bias = parameters[1];
-  in.delta = parameters[7][0] - time_offset0_i_;
-  in.aux = parameters[4];
-  in.aux_gyro = pre_->samples().front().gyro;
-  const aux_end::End end_i = aux_end::evaluate(in, jacobian);
-  in.motion = &base_j_;
-  in.pose = parameters[2];
-  in.speed_bias = parameters[3];
-  in.delta = parameters[7][0] - time_offset0_j_;
-  in.aux = parameters[5];
-  in.aux_gyro = pre_->samples().back().gyro;
-  const aux_end::End end_j = aux_end::evaluate(in, jacobian);
+  // End k (0: i, 1: j): its base blocks, aux block, base motion, offset and aux gyro reading.
+  const auto end = [&](int k, const BaseMotion& motion, double time_offset0,
+                       const ImuMeasurement& reading) {
+    in.motion = &motion;
+    in.pose = parameters[2 * k];
+    in.speed_bias = parameters[2 * k + 1];
+    in.delta = parameters[7][0] - time_offset0;
+    in.aux = parameters[4 + k];
+    in.aux_gyro = reading.gyro;
+    return aux_end::evaluate(in, jacobian);
+  };
+  const aux_end::End end_i = end(0, base_i_, time_offset0_i_, pre_->samples().front());
+  const aux_end::End end_j = end(1, base_j_, time_offset0_j_, pre_->samples().back());
 
   // The deltas corrected to x to first order about where they were integrated (Eq. 32-34).
   const Eigen::Matrix<double, 9, 1> lin = d.J * (x - d.x0);

@@ -77,16 +77,16 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
   in.R_AI =
       Eigen::Quaterniond(Eigen::Map<const Eigen::Quaterniond>(parameters[6])).toRotationMatrix();
   in.position = false;
-  in.motion = &base_i_;
-  in.pose = parameters[0];
-  in.speed_bias = parameters[1];
-  in.delta = parameters[7][0] - time_offset0_i_;
-  const aux_end::End end_i = aux_end::evaluate(in, jacobian);
-  in.motion = &base_j_;
-  in.pose = parameters[2];
-  in.speed_bias = parameters[3];
-  in.delta = parameters[7][0] - time_offset0_j_;
-  const aux_end::End end_j = aux_end::evaluate(in, jacobian);
+  // End k (0: i, 1: j): its base blocks, base motion and offset.
+  const auto end = [&](int k, const BaseMotion& motion, double time_offset0) {
+    in.motion = &motion;
+    in.pose = parameters[2 * k];
+    in.speed_bias = parameters[2 * k + 1];
+    in.delta = parameters[7][0] - time_offset0;
+    return aux_end::evaluate(in, jacobian);
+  };
+  const aux_end::End end_i = end(0, base_i_, time_offset0_i_);
+  const aux_end::End end_j = end(1, base_j_, time_offset0_j_);
 
   const Vector3 phi = d.J.topRows<3>() * (x - d.x0);
   const Matrix3 dR = d.dR * lie::expSO3(phi);
