@@ -240,6 +240,7 @@ def final_calibration_table(errors):
                 continue  # a gyroscope's translation, an IMU's intrinsics
             if cols.start >= 7 and not np.any(s > 0.0):
                 continue  # intrinsics not estimated
+            # held by the configuration (one the motion holds keeps its std: counted)
             held = np.all(s == 0.0)
             inside = int(np.sum(np.abs(x) <= 3.0 * s)) if not held else None
             # Extrinsics: the norm over the axes; intrinsics: the largest element.

@@ -255,6 +255,21 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       out[c].intrinsics = sd.head<4>();
       out[c].distortion_coeffs = sd.tail<4>();
     }
+    // Held whole by the motion (constant now, estimated otherwise) before any covariance had it:
+    // its prior's, as a partly held block keeps the variance of its held directions.
+    if (heldWholeByMotion(problem, cb.extrinsic) && out[c].rotation.norm() == 0.0) {
+      const Eigen::VectorXd sd = latestStd(cb.extrinsic);
+      out[c].rotation = sd.head<3>();
+      out[c].translation = sd.tail<3>();
+    }
+    if (heldWholeByMotion(problem, cb.time_offset) && out[c].timeshift_cam_imu == 0.0) {
+      out[c].timeshift_cam_imu = latestStd(cb.time_offset)(0);
+    }
+    if (heldWholeByMotion(problem, cb.intrinsics) && out[c].intrinsics.norm() == 0.0) {
+      const Eigen::VectorXd sd = latestStd(cb.intrinsics);
+      out[c].intrinsics = sd.head<4>();
+      out[c].distortion_coeffs = sd.tail<4>();
+    }
   }
   camera_std_ = out;
   for (auto& a : aux_) {
@@ -270,8 +285,23 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       cov.GetCovarianceBlock(a->time_offset, a->time_offset, &v);
       sd.time_offset = std::sqrt(std::max(v, 0.0));
     }
+    // Held whole by the motion before any covariance had it: its prior's (latestStd).
+    if (heldWholeByMotion(problem, e) && sd.rotation.norm() == 0.0) {
+      const Eigen::VectorXd v = latestStd(e);
+      sd.rotation = v.head<3>();
+      if (!a->gyro) sd.translation = v.tail<3>();
+    }
+    if (heldWholeByMotion(problem, a->time_offset) && sd.time_offset == 0.0) {
+      sd.time_offset = latestStd(a->time_offset)(0);
+    }
     a->std = sd;
   }
+}
+
+bool CalibrationBlocks::heldWholeByMotion(const ceres::Problem& problem,
+                                          const double* block) const {
+  return problem.HasParameterBlock(block) && problem.IsParameterBlockConstant(block) &&
+         fixed_.count(block) == 0;
 }
 
 Eigen::VectorXd CalibrationBlocks::latestStd(const double* block) const {

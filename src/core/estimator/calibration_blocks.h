@@ -99,7 +99,9 @@ class CalibrationBlocks {
   // The estimated (non-constant) blocks whose covariance is wanted.
   void covarianceBlocks(const ceres::Problem& problem,
                         std::vector<std::pair<const double*, const double*>>* blocks) const;
-  // Standard deviations from a computed covariance; blocks held whole keep theirs.
+  // Standard deviations from a computed covariance. Blocks held whole keep theirs: held by the
+  // options 0 (not estimated), held by the motion the last computed one, or before any its
+  // prior's (the uncertainty it is held at, as the held directions of a partly held block).
   void updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
                  const TangentCovariance& tangent);
   // Latest standard deviations of a camera or auxiliary calibration block in its own tangent
@@ -116,6 +118,9 @@ class CalibrationBlocks {
   std::vector<std::unique_ptr<CameraBlocks>> cameras_;
   std::vector<std::unique_ptr<AuxCalibration>> aux_;  // index sensor - 1
   std::set<const double*> fixed_;                     // fixedBlocks()
+  // In the problem, constant, and not held by the options (held whole by the motion, or by the
+  // first batch).
+  bool heldWholeByMotion(const ceres::Problem& problem, const double* block) const;
   double gravity_[kGravitySize] = {0.0, 0.0, -9.81};
   std::optional<std::vector<CameraCalibrationStd>> camera_std_;
   PoseManifold pose_manifold_;

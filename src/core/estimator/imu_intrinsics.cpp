@@ -125,8 +125,18 @@ void ImuIntrinsicsBlocks::covarianceBlocks(
 void ImuIntrinsicsBlocks::updateCovariance(const ceres::Problem& problem,
                                            const TangentCovariance& tangent) {
   for (auto& b : blocks_) {
-    // A block held whole (constant) is not in the computation: it keeps what it had.
-    if (!b || problem.IsParameterBlockConstant(b->x)) continue;
+    if (!b) continue;
+    // A block held whole (constant: by the motion) is not in the computation: it keeps what it
+    // had, or before any covariance its prior's (the uncertainty it is held at).
+    if (problem.IsParameterBlockConstant(b->x)) {
+      if (!b->covariance) {
+        Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize> A =
+            Eigen::Matrix<double, kImuIntrinsicsSize, kImuIntrinsicsSize>::Zero();
+        for (const int e : b->free) A(e, e) = b->prior_std[e] * b->prior_std[e];
+        b->covariance = A;
+      }
+      continue;
+    }
     // In the block's own tangent (held directions with the variance they keep), then ambient.
     const Eigen::MatrixXd C = tangent(b->x);
     const std::vector<int>& idx = b->free;
