@@ -31,7 +31,9 @@
 // (Hp' U = 0: no information along U; and the share of the residual that U explains goes with
 // it rather than into other blocks). The others add unchanged. The estimator uses this for
 // calibration directions the recent motion does not make observable (observability.h), so that
-// what leaves the window adds no information along them, which only linearization noise would.
+// what leaves the window adds no information along them, which only linearization noise would
+// (the IMU intrinsics' held directions, and the extrinsics' while the cameras' intrinsics are
+// estimated: ObservabilityMonitor::heldDirections).
 // Where the variance V that U's directions keep while held is given, U is marginalized with
 // that prior and what is left along U is projected away (P = I - U U^T):
 //   Hp' = P (Hp - Hp U (U^T Hp U + V^-1)^+ U^T Hp) P,   gp' = P (gp - Hp U (...)^+ U^T gp),

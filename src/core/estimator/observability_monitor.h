@@ -52,8 +52,10 @@ class ObservabilityMonitor {
   // leaves the window must not inform.
   const std::vector<UnobservableCalibration>& unobservable() const { return unobservable_; }
   const std::map<const double*, Eigen::MatrixXd>& uninformative() const { return uninformative_; }
-  // The same as held: per block the held directions (orthonormal tangent columns, spanning
-  // uninformative()'s) and the variance each keeps, for the marginalization.
+  // What the marginalization must not learn along: per block the held directions (orthonormal
+  // tangent columns) and the variance each keeps (empty: as unknown). Held extrinsic and time
+  // offset directions are not in it unless the cameras' intrinsics are estimated (see the
+  // definition).
   std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>> heldDirections() const;
 
   // The block's own manifold, also while it is held.
@@ -136,7 +138,8 @@ class ObservabilityMonitor {
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Hold> holds_;
   std::uint64_t holds_made_ = 0;
-  std::set<const double*> window_blocks_;  // blocks holding a part of a joint weak direction
+  std::set<const double*> window_blocks_;     // blocks holding a part of a joint weak direction
+  bool camera_intrinsics_estimated_ = false;  // any camera's (heldDirections())
   std::vector<std::pair<const double*, Eigen::VectorXd>> window_parts_;  // (block, direction)
   std::vector<UnobservableCalibration> window_found_;
   long solves_since_window_check_ = 0;
