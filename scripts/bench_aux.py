@@ -99,10 +99,10 @@ def scaling(bin_dir, root, out, duration):
         rt = re.search(r"\(([\d.]+)x real time\)", text)
         total = float(times.group(3))
         base = total if n == 0 else base
-        per_aux = "%.2f" % ((total - base) / n) if n > 0 else "-"
-        added = "%.2f" % ((total - previous[1]) / (n - previous[0])) if n > 0 else "-"
+        per_aux = "%.3f" % ((total - base) / n) if n > 0 else "-"
+        added = "%.3f" % ((total - previous[1]) / (n - previous[0])) if n > 0 else "-"
         previous = (n, total)
-        print("%4d %12s %12s %9sx %16.1f %18s %16s" % (n, times.group(1), times.group(2),
+        print("%4d %12s %12s %9sx %16.2f %18s %16s" % (n, times.group(1), times.group(2),
                                                        rt.group(1), total, per_aux, added))
 
 

@@ -451,7 +451,7 @@ int main(int argc, char** argv) {
       c.held_intrinsics_misfits, o.sigma_inflation);
   double update_total_ms = 0.0;
   for (double ms : o.update_ms) update_total_ms += ms;
-  std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.1f s",
+  std::printf("estimator updates: %zu, median %.1f ms, p99 %.1f ms, total %.2f s",
               o.update_ms.size(), percentile(o.update_ms, 0.5), percentile(o.update_ms, 0.99),
               update_total_ms * 1e-3);
   if (!o.solve_iterations.empty()) {
