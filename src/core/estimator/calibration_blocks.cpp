@@ -233,13 +233,21 @@ std::vector<TrustedCalibration::Block> CalibrationBlocks::trustedBlocks(
 
 void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
                                   const TangentCovariance& tangent) {
-  // Blocks held whole (constant) keep the standard deviations they had.
+  // A block not estimated now keeps its standard deviations: held whole by the motion, the last
+  // computed ones, or before any its prior's (latestStd: the uncertainty it is held at, as the
+  // held directions of a partly held block keep theirs); held by the options, 0 (empty here).
+  const auto kept = [&](const double* block) {
+    return heldWholeByMotion(problem, block) ? latestStd(block) : Eigen::VectorXd();
+  };
   std::vector<CameraCalibrationStd> out =
       camera_std_ ? *camera_std_ : std::vector<CameraCalibrationStd>(cameras_.size());
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     const CameraBlocks& cb = *cameras_[c];
-    if (!problem.IsParameterBlockConstant(cb.extrinsic)) {
-      const Vector6d sd = tangent(cb.extrinsic).diagonal().cwiseMax(0.0).cwiseSqrt();
+    Eigen::VectorXd sd =
+        problem.IsParameterBlockConstant(cb.extrinsic)
+            ? kept(cb.extrinsic)
+            : Eigen::VectorXd(tangent(cb.extrinsic).diagonal().cwiseMax(0.0).cwiseSqrt());
+    if (sd.size() > 0) {
       out[c].rotation = sd.head<3>();
       out[c].translation = sd.tail<3>();
     }
@@ -247,26 +255,14 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       double v = 0.0;
       cov.GetCovarianceBlock(cb.time_offset, cb.time_offset, &v);
       out[c].timeshift_cam_imu = std::sqrt(std::max(v, 0.0));
+    } else if (const Eigen::VectorXd k = kept(cb.time_offset); k.size() > 0) {
+      out[c].timeshift_cam_imu = k[0];
     }
-    if (!problem.IsParameterBlockConstant(cb.intrinsics)) {
-      // In its own tangent: a part held keeps its variance there (tangentCovariance).
-      const Eigen::Matrix<double, 8, 1> sd =
-          tangent(cb.intrinsics).diagonal().cwiseMax(0.0).cwiseSqrt();
-      out[c].intrinsics = sd.head<4>();
-      out[c].distortion_coeffs = sd.tail<4>();
-    }
-    // Held whole by the motion (constant now, estimated otherwise) before any covariance had it:
-    // its prior's, as a partly held block keeps the variance of its held directions.
-    if (heldWholeByMotion(problem, cb.extrinsic) && out[c].rotation.norm() == 0.0) {
-      const Eigen::VectorXd sd = latestStd(cb.extrinsic);
-      out[c].rotation = sd.head<3>();
-      out[c].translation = sd.tail<3>();
-    }
-    if (heldWholeByMotion(problem, cb.time_offset) && out[c].timeshift_cam_imu == 0.0) {
-      out[c].timeshift_cam_imu = latestStd(cb.time_offset)(0);
-    }
-    if (heldWholeByMotion(problem, cb.intrinsics) && out[c].intrinsics.norm() == 0.0) {
-      const Eigen::VectorXd sd = latestStd(cb.intrinsics);
+    // In its own tangent: a part held keeps its variance there (tangentCovariance).
+    sd = problem.IsParameterBlockConstant(cb.intrinsics)
+             ? kept(cb.intrinsics)
+             : Eigen::VectorXd(tangent(cb.intrinsics).diagonal().cwiseMax(0.0).cwiseSqrt());
+    if (sd.size() > 0) {
       out[c].intrinsics = sd.head<4>();
       out[c].distortion_coeffs = sd.tail<4>();
     }
@@ -275,24 +271,20 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
   for (auto& a : aux_) {
     InertialCalibrationStd sd = a->std ? *a->std : InertialCalibrationStd{};
     const double* e = a->extrinsicBlock();
-    if (!problem.IsParameterBlockConstant(e)) {
-      const Eigen::VectorXd v = tangent(e).diagonal().cwiseMax(0.0).cwiseSqrt();
+    const Eigen::VectorXd v =
+        problem.IsParameterBlockConstant(e)
+            ? kept(e)
+            : Eigen::VectorXd(tangent(e).diagonal().cwiseMax(0.0).cwiseSqrt());
+    if (v.size() > 0) {
       sd.rotation = v.head<3>();
       if (!a->gyro) sd.translation = v.tail<3>();
     }
     if (!problem.IsParameterBlockConstant(a->time_offset)) {
-      double v = 0.0;
-      cov.GetCovarianceBlock(a->time_offset, a->time_offset, &v);
-      sd.time_offset = std::sqrt(std::max(v, 0.0));
-    }
-    // Held whole by the motion before any covariance had it: its prior's (latestStd).
-    if (heldWholeByMotion(problem, e) && sd.rotation.norm() == 0.0) {
-      const Eigen::VectorXd v = latestStd(e);
-      sd.rotation = v.head<3>();
-      if (!a->gyro) sd.translation = v.tail<3>();
-    }
-    if (heldWholeByMotion(problem, a->time_offset) && sd.time_offset == 0.0) {
-      sd.time_offset = latestStd(a->time_offset)(0);
+      double t = 0.0;
+      cov.GetCovarianceBlock(a->time_offset, a->time_offset, &t);
+      sd.time_offset = std::sqrt(std::max(t, 0.0));
+    } else if (const Eigen::VectorXd k = kept(a->time_offset); k.size() > 0) {
+      sd.time_offset = k[0];
     }
     a->std = sd;
   }

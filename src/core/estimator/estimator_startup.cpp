@@ -167,11 +167,11 @@ void Estimator::Impl::initialize() {
   // 4.1-4.4x real time, ATE 2.6 against 5.2 mm). Not with every IMU's intrinsics estimated and a
   // board: there the same change left the cameras 0.1-0.2 deg off at 15 sigma (not understood
   // yet), so the auxiliary sensors stay in.
-  bool imu_intrinsics_estimated = false;
+  std::vector<double*> imu_intrinsics;  // the estimated IMU intrinsics' blocks
   for (std::size_t i = 0; i < intrinsics.sensors(); ++i) {
-    imu_intrinsics_estimated = imu_intrinsics_estimated || intrinsics.values(i) != nullptr;
+    if (intrinsics.values(i) != nullptr) imu_intrinsics.push_back(intrinsics.values(i));
   }
-  const bool aux_after_batch = landmark_mode || !imu_intrinsics_estimated;
+  const bool aux_after_batch = landmark_mode || imu_intrinsics.empty();
   if (!aux_after_batch) aux.extend();
   // The first batch settles the states; the auxiliary sensors' calibration and the cameras' and
   // IMUs' intrinsics wait for the window (and its observability check): one short window cannot
@@ -184,9 +184,7 @@ void Estimator::Impl::initialize() {
   // cannot improve that calibration, and a fault still going on (a camera clock drifting) would
   // pull it (a base-camera clock drifting by 0.5% left its time offset 4 sigma off).
   std::vector<double*> batch_blocks = calibration.batchHeldBlocks(trusted.fromCovariance());
-  for (std::size_t i = 0; i < intrinsics.sensors(); ++i) {
-    if (intrinsics.values(i) != nullptr) batch_blocks.push_back(intrinsics.values(i));
-  }
+  batch_blocks.insert(batch_blocks.end(), imu_intrinsics.begin(), imu_intrinsics.end());
   for (double* b : batch_blocks) {
     if (!problem->IsParameterBlockConstant(b)) {
       problem->SetParameterBlockConstant(b);

@@ -61,13 +61,7 @@ ObservabilityMonitor::ObservabilityMonitor(const Rig& rig, const EstimatorOption
       options_(options),
       calibration_(calibration),
       intrinsics_(intrinsics),
-      moments_(rig.inertial.size()) {
-  for (const Camera& c : rig.cameras) {
-    if (options.estimate_intrinsics && !heldByOption(options, c.name, "intrinsics")) {
-      camera_intrinsics_estimated_ = true;
-    }
-  }
-}
+      moments_(rig.inertial.size()) {}
 
 void ObservabilityMonitor::clear() {
   unobservable_.clear();
@@ -576,9 +570,14 @@ ObservabilityMonitor::heldDirections() const {
   // left to the current window, kept as they are it drifted: yaw-only cameras' rotations RMS
   // error/sigma 1.4-1.8 against 0.7). That kept variance is not handed on for the others: every
   // marginalization would count it once more (yaw-only position NEES 11-98 against 2.3-4.1).
+  bool camera_intrinsics = false;  // any camera's estimated
+  for (const Camera& c : rig_.cameras) {
+    camera_intrinsics = camera_intrinsics || (options_.estimate_intrinsics &&
+                                              !heldByOption(options_, c.name, "intrinsics"));
+  }
   for (const auto& [block, D] : uninformative_) {
     const bool intrinsics = intrinsics_.isBlock(block);
-    if (!intrinsics && !camera_intrinsics_estimated_ && window_blocks_.count(block) == 0) {
+    if (!intrinsics && !camera_intrinsics && window_blocks_.count(block) == 0) {
       continue;  // kept
     }
     const auto h = holds_.find(block);

@@ -138,8 +138,7 @@ class ObservabilityMonitor {
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Hold> holds_;
   std::uint64_t holds_made_ = 0;
-  std::set<const double*> window_blocks_;     // blocks holding a part of a joint weak direction
-  bool camera_intrinsics_estimated_ = false;  // any camera's (heldDirections())
+  std::set<const double*> window_blocks_;  // blocks holding a part of a joint weak direction
   std::vector<std::pair<const double*, Eigen::VectorXd>> window_parts_;  // (block, direction)
   std::vector<UnobservableCalibration> window_found_;
   long solves_since_window_check_ = 0;
