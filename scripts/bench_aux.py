@@ -10,6 +10,11 @@
    degeneracy check off (the models themselves) and on (the default); the mean NEES of
    imu1's translation (3 degrees of freedom, per-axis standard deviations) and its largest
    error/sigma.
+3. Without a board, cost against the number of tags in view: boards of 3x3, 6x6 and 10x10 tags
+   over the same 0.66 m (the VI-Rig's is 6x6), DURATION s of hand-held motion, mvis_offline
+   without the board's file (tag corners as landmarks, the default carried_tags) on one core;
+   the estimator's time per tag, and the 6x6 board once more with every tag carried
+   (--carried-tags 0) against the default.
 
 Usage: bench_aux.py BIN_DIR ROOT OUT_DIR DURATION
 """
@@ -106,6 +111,44 @@ def scaling(bin_dir, root, out, duration):
                                                        rt.group(1), total, per_aux, added))
 
 
+def tags(bin_dir, root, out, duration):
+    print("== without a board: estimator cost with N tags in view (VI-Rig, %s s, one core)"
+          % duration)
+    print("%6s %14s %12s %12s %10s %14s %14s %10s" % (
+        "tags", "carried", "median [ms]", "p99 [ms]", "real time", "estimator [s]",
+        "per tag [s]", "ATE [mm]"))
+    span = 0.66  # [m] the VI-Rig board's: 6 tags of 0.088 m with 0.3 of a tag between them
+    for n, carried in [(3, None), (6, None), (10, None), (6, "0")]:
+        data = os.path.join(out, "tags_%d" % n)
+        if not os.path.isdir(data):
+            rig = os.path.join(out, "tags_rig_%d" % n)
+            shutil.copytree(os.path.join(root, "config", "sim_vi_rig"), rig)
+            grid_path = os.path.join(rig, "aprilgrid.yaml")
+            with open(grid_path) as f:
+                grid = f.read()
+            grid = re.sub(r"(?m)^tagCols:.*$", "tagCols: %d" % n, grid)
+            grid = re.sub(r"(?m)^tagRows:.*$", "tagRows: %d" % n, grid)
+            grid = re.sub(r"(?m)^tagSize:.*$", "tagSize: %.4f" % (span / (n + 0.3 * (n - 1))),
+                          grid)
+            with open(grid_path, "w") as f:
+                f.write(grid)
+            sim = os.path.join(out, "tags_sim_%d.yaml" % n)
+            sim_yaml(root, sim, duration)
+            run([os.path.join(bin_dir, "mvis_simulate"), "--rig", rig, "--sim", sim, "--output",
+                 data, "--detections"])
+            os.remove(os.path.join(data, "config", "aprilgrid.yaml"))
+        extra = ["--carried-tags", carried] if carried is not None else []
+        text = offline(bin_dir, data, os.path.join(out, "tags_result_%d_%s" % (n, carried)),
+                       extra)
+        times = re.search(r"median ([\d.]+) ms, p99 ([\d.]+) ms, total ([\d.]+) s", text)
+        rt = re.search(r"\(([\d.]+)x real time\)", text)
+        ate = re.search(r"^ATE.*?: ([\d.]+) mm over", text, re.M)
+        total = float(times.group(3))
+        print("%6d %14s %12s %12s %9sx %14.2f %14.3f %10s" % (
+            n * n, "every tag" if carried == "0" else "default", times.group(1), times.group(2),
+            rt.group(1), total, total / (n * n), ate.group(1) if ate else "-"))
+
+
 def translation_nees(truth_dir, result_dir, sensor="imu1"):
     with open(os.path.join(truth_dir, "kalibr_imu_chain.yaml")) as f:
         truth = yaml.safe_load(f)[sensor]
@@ -152,6 +195,7 @@ def main():
     os.makedirs(out, exist_ok=True)
     scaling(bin_dir, root, out, duration)
     consistency(bin_dir, root, out, duration, seeds=[1, 2, 3, 4])
+    tags(bin_dir, root, out, duration)
 
 
 if __name__ == "__main__":

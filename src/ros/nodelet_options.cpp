@@ -18,6 +18,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("tag_max_hamming", o.tag_max_hamming, o.tag_max_hamming);
   nh.param("tag_threads", o.tag_threads, o.tag_threads);
   nh.param("window_size", o.window_size, o.window_size);
+  nh.param("carried_tags", o.carried_tags, o.carried_tags);
   nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
   nh.param("huber_sigma", o.huber_sigma, o.huber_sigma);
   nh.param("robust_loss", o.robust_loss, o.robust_loss);
@@ -66,6 +67,7 @@ std::string NodeletOptions::validate() const {
   }
   if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
   if (window_size < 3) return "parameter ~window_size must be >= 3";
+  if (carried_tags < 0) return "parameter ~carried_tags must be >= 0 (0: every tag)";
   if (!(observability_ratio >= 0.0)) {
     return "parameter ~observability_ratio must be >= 0 (0 turns the check off)";
   }

@@ -1,7 +1,7 @@
 // Marginalization prior: exact on a linear problem (the reduced problem has the full problem's
-// solution), equal to a dense Schur complement on a small nonlinear problem with manifolds, and
-// a correct linear model when evaluated away from its linearization point; its Cholesky form
-// splits into row groups with the same cost.
+// solution), equal to a dense Schur complement on a small nonlinear problem with manifolds (also
+// with blocks eliminated alone, and semi-definite), and a correct linear model when evaluated
+// away from its linearization point; its Cholesky form splits into row groups with the same cost.
 #include <ceres/ceres.h>
 #include <ceres/normal_prior.h>
 #include <ceres/sphere_manifold.h>
@@ -25,6 +25,14 @@ class LinearCost final : public ceres::CostFunction {
   LinearCost(std::vector<Eigen::MatrixXd> A, Eigen::VectorXd z) : A_(std::move(A)), z_(z) {
     set_num_residuals(static_cast<int>(z_.size()));
     for (const auto& a : A_) mutable_parameter_block_sizes()->push_back(static_cast<int>(a.cols()));
+  }
+  const Eigen::MatrixXd& jacobian(std::size_t b) const { return A_[b]; }
+  Eigen::VectorXd residual(const std::vector<const double*>& x) const {
+    Eigen::VectorXd r = -z_;
+    for (std::size_t b = 0; b < A_.size(); ++b) {
+      r += A_[b] * Eigen::Map<const Eigen::VectorXd>(x[b], A_[b].cols());
+    }
+    return r;
   }
   bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
     Eigen::VectorXd r = -z_;
@@ -168,6 +176,47 @@ Marginalizer smallMarginalizer(SmallProblem* s, const PoseManifold& pose,
   return m;
 }
 
+// A Schur complement of rank 2 over 5 kept values (x1 dropped, 3 values, by 5 rows): factored
+// as semi-definite (allowSemidefinite) it has one row per kept pivot, upper trapezoidal, and
+// the same information and gradient as the dense reference; informationOnly keeps no rows and
+// the same information.
+TEST(Marginalization, SemidefinitePriorKeepsItsInformationInTriangularRows) {
+  std::mt19937 rng(11);
+  const LinearCost a({randomMatrix(5, 3, &rng), randomMatrix(5, 2, &rng), randomMatrix(5, 3, &rng)},
+                     randomMatrix(5, 1, &rng));
+  double x1[3] = {0.1, 0.2, 0.3}, x2[2] = {-0.4, 0.5}, x3[3] = {0.6, -0.7, 0.8};
+  Eigen::MatrixXd J(5, 8);
+  J << a.jacobian(0), a.jacobian(1), a.jacobian(2);
+  const Eigen::VectorXd r = a.residual({x1, x2, x3});
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd g = J.transpose() * r;
+  const Eigen::MatrixXd Hmm_inv = H.topLeftCorner(3, 3).inverse();
+  const Eigen::MatrixXd Hs =
+      H.bottomRightCorner(5, 5) - H.bottomLeftCorner(5, 3) * Hmm_inv * H.topRightCorner(3, 5);
+  const Eigen::VectorXd gs = g.tail(5) - H.bottomLeftCorner(5, 3) * Hmm_inv * g.head(3);
+  const double scale = Hs.cwiseAbs().maxCoeff();
+  for (const bool information_only : {false, true}) {
+    Marginalizer m;
+    m.allowSemidefinite();
+    if (information_only) m.informationOnly();
+    m.addResidual(&a, nullptr, {x1, x2, x3});
+    auto made = m.marginalize({x1});
+    ASSERT_TRUE(made.ok()) << made.status().message();
+    const MarginalizationFactor& prior = *made.value();
+    EXPECT_LT((prior.information() - Hs).cwiseAbs().maxCoeff(), 1e-10 * scale);
+    EXPECT_LT((prior.gradient() - gs).cwiseAbs().maxCoeff(), 1e-10 * scale);
+    if (information_only) {
+      EXPECT_EQ(prior.J0().rows(), 0);
+      continue;
+    }
+    const Eigen::MatrixXd& J0 = prior.J0();
+    ASSERT_EQ(J0.rows(), 2);  // the rank: 5 rows less the 3 that x1 took
+    EXPECT_EQ(J0(1, 0), 0.0);  // upper trapezoidal
+    EXPECT_LT((J0.transpose() * J0 - Hs).cwiseAbs().maxCoeff(), 1e-10 * scale);
+    EXPECT_LT((J0.transpose() * prior.r0() - gs).cwiseAbs().maxCoeff(), 1e-10 * scale);
+  }
+}
+
 TEST(Marginalization, MatchesDenseSchurComplement) {
   SmallProblem s = makeSmallProblem();
   const PoseManifold pose;
@@ -303,6 +352,30 @@ TEST(Marginalization, CholeskyPriorIsTriangularAndSplitsByBlock) {
             1e-10);
   EXPECT_LT((inv_sqrt_d.asDiagonal() * (J0.transpose() * prior.r0() - gs)).cwiseAbs().maxCoeff(),
             1e-10);
+
+  // A dropped block eliminated on its own first (eliminateAlone: the estimator's landmarks that
+  // leave with their observations) gives the same Schur complement, here with one or both of the
+  // leaving state's blocks alone (the latter leaves nothing for the dense step).
+  for (const std::vector<int>& alone :
+       {std::vector<int>{0}, std::vector<int>{1}, std::vector<int>{0, 1}}) {
+    Marginalizer m_alone = smallMarginalizer(&s, pose, sphere);
+    m_alone.addResidual(pose_j_prior.get(), nullptr, {ptr(2)});
+    m_alone.addResidual(s.sb_prior.get(), nullptr, {ptr(3)});
+    for (int b : alone) m_alone.eliminateAlone(ptr(b));
+    auto other = m_alone.marginalize({ptr(0), ptr(1)});
+    ASSERT_TRUE(other.ok()) << other.status().message();
+    const MarginalizationFactor& p = *other.value();
+    ASSERT_EQ(p.parameterBlocks(), (std::vector<double*>{ptr(2), ptr(3), ptr(4)}));
+    EXPECT_LT((inv_sqrt_d.asDiagonal() * (p.J0().transpose() * p.J0() - Hs) *
+               inv_sqrt_d.asDiagonal())
+                  .cwiseAbs()
+                  .maxCoeff(),
+              1e-10)
+        << alone.size();
+    EXPECT_LT((inv_sqrt_d.asDiagonal() * (p.J0().transpose() * p.r0() - gs)).cwiseAbs().maxCoeff(),
+              1e-10)
+        << alone.size();
+  }
 
   // Split: one factor per kept block, on that block and the ones after it.
   const auto parts = prior.splitRows();

@@ -98,6 +98,12 @@ struct EstimatorOptions {
   // the cameras' calibration by 0.16 mm. 0: the readings as they come, linear in between.
   double imu_integration_step_s = 0.0025;
   int window_size = 4;  // states kept in the window (>= 3)
+  // Without a board: the most tags whose corners the window carries across marginalizations (in
+  // its prior, which is dense over them: its cost grows with the cube of their number). A tag
+  // beyond them is a landmark of the window alone: it leaves with the oldest state that sees it,
+  // with every observation of it, and starts again from its next view (as a multi-state
+  // constraint on the states and calibration that saw it). 0: every tag carried.
+  int carried_tags = 12;
   // Solve after every n-th cam0 frame (states are still added, predicted by the IMU, and
   // marginalized at every frame): a budget for slow machines.
   int solve_every = 3;
@@ -286,6 +292,9 @@ struct SolveSummary {
   int states = 0;
   int frames = 0;     // camera frames in the window
   int corners = 0;    // corner observations in the window
+  // Without a board: tags that are landmarks in the window, and of them those carried across
+  // marginalizations (EstimatorOptions::carried_tags).
+  int landmarks = 0, carried_landmarks = 0;
   double cost = 0.0;  // final Ceres cost
   bool usable = false;
 };

@@ -74,6 +74,21 @@ class Marginalizer {
   // dropped from the result (the Schur complement's [kept, kept] block does not depend on
   // whether a constant block was carried along); its Jacobian is never asked for.
   void setFixed(const double* block) { fixed_.insert(block); }
+  // A dropped block coupled to few others (a landmark that a few frames see and no earlier prior
+  // holds): eliminated on its own before the rest, H -= H_:b H_bb^+ H_b: over the rows and
+  // columns of the blocks it couples to only. The same Schur complement as in one piece (in exact
+  // arithmetic), at a cost linear in the number of such blocks instead of cubic.
+  void eliminateAlone(const double* block) { alone_.insert(block); }
+  // A Schur complement that is not clearly positive definite is factored by LDL^T with its
+  // vanishing pivots skipped (a third of the eigen-decomposition's cost, same triangular shape as
+  // Cholesky's) rather than by the eigen-decomposition, unless that meets round-off. The
+  // estimator's landmarks that leave with their observations make every prior so: each later
+  // state they touch enters it with what its frames tell of its pose, velocity and biases
+  // together, the rest of that state in the window's inertial factors.
+  void allowSemidefinite() { semidefinite_ = true; }
+  // The prior as its information (H*, b*) only, without rows (J0 and r0 empty): for one that only
+  // the next marginalization reads (addPrior), never a solve. Saves factoring it.
+  void informationOnly() { information_only_ = true; }
   // A residual block touching at least one dropped block. Neither pointer is owned; both are
   // only used inside marginalize().
   void addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
@@ -109,6 +124,9 @@ class Marginalizer {
     Eigen::VectorXd g;
   };
   StatusOr<Reduced> reduce(const std::set<const double*>& drop, double eps) const;
+  // Eliminates the dropped blocks in alone_ one at a time from (H, g) and removes their rows,
+  // columns and entries (offsets renumbered, `dropped` counting the rest).
+  void eliminateAlone(Reduced* out, Eigen::MatrixXd* H, Eigen::VectorXd* g, double eps) const;
 
   std::vector<Residual> residuals_;
   std::vector<const MarginalizationFactor*> priors_;
@@ -116,6 +134,9 @@ class Marginalizer {
   std::map<const double*, Eigen::MatrixXd> uninformative_;
   std::map<const double*, Eigen::VectorXd> kept_variance_;
   std::set<const double*> fixed_;
+  std::set<const double*> alone_;
+  bool semidefinite_ = false;
+  bool information_only_ = false;
 };
 
 class MarginalizationFactor final : public ceres::CostFunction {

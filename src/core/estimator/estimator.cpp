@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <iomanip>
+#include <set>
 #include <sstream>
 #include <utility>
 
@@ -50,7 +51,7 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       imu(rig.inertial[0], options.imu_integration_step_s),
       window(options),
       monitor(rig, options, calibration, intrinsics),
-      landmarks(rig.cameras.size()),
+      landmarks(rig.cameras.size(), options.batch ? 0 : options.carried_tags),
       aux(rig, options, imu, window, calibration, intrinsics, monitor, counters),
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
       startup(rig, options, calibration, imu, counters),
@@ -331,12 +332,22 @@ SolveSummary Estimator::Impl::solve(int iterations, double max_time_s) {
   return out;
 }
 
-void Estimator::Impl::marginalizeOldest() {
+void Estimator::Impl::marginalizeOldest(bool rows) {
   State& oldest = window.oldest();
   std::vector<double*> leaving = {oldest.pose, oldest.speed_bias};
   for (const auto& noise : oldest.propagation_noise) leaving.push_back(noise.get());
-  const std::vector<double*> leaving_landmarks = landmarks.leaving(window.states());
+  const std::vector<double*> leaving_landmarks = landmarks.leaving(
+      window.states(), static_cast<int>(window.size()) <= options.window_size + 1);
   leaving.insert(leaving.end(), leaving_landmarks.begin(), leaving_landmarks.end());
+  // The window's own landmarks leave with every observation of them, each eliminated alone
+  // unless the prior holds it (seen in the first batch).
+  std::set<const double*> own, alone;
+  for (const double* block : leaving_landmarks) {
+    if (landmarks.carried(block)) continue;
+    own.insert(block);
+    if (!prior.holds(block)) alone.insert(block);
+  }
+  window.moveToOldest(own);
   aux.leaving(oldest, &leaving);
   inertial_fit.leaving(oldest, trusted.fromCovariance());
   const std::string misfit =
@@ -347,7 +358,8 @@ void Estimator::Impl::marginalizeOldest() {
   auto made = prior.marginalize(
       oldest.residuals, leaving,
       [this](const double* block) { return monitor.baseManifold(*window.problem(), block); },
-      monitor.heldDirections(), calibration.fixedBlocks());
+      monitor.heldDirections(), calibration.fixedBlocks(), alone,
+      !rig.target && options.carried_tags > 0, rows);
   // Remove the old prior and the state (with every residual on it).
   prior.removeFrom(window.problem());
   window.removeOldest(leaving);
@@ -363,6 +375,8 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   ++solves_since_covariance;
   EstimatorUpdate u;
   u.solve = summary;
+  u.solve.landmarks = landmarks.count();
+  u.solve.carried_landmarks = landmarks.carriedCount();
   u.state = window.newest().toEstimate();
   u.anchor = anchor();
   if (propagation_callback) odometry.setAnchor(u.anchor);

@@ -91,7 +91,9 @@ struct Estimator::Impl {
   // Solves the window (max_time_s <= 0: the option's budget) and refreshes what depends on the
   // solution.
   SolveSummary solve(int iterations, double max_time_s = -1.0);
-  void marginalizeOldest();
+  // `rows`: the new prior enters the problem (else it is kept as information for the next
+  // marginalization only: cutting the first batch to the window state by state).
+  void marginalizeOldest(bool rows = true);
   // IMU-rate state: the newest window state carried forward with the readings since (a raw
   // base reading, fed to `odometry`), to the propagation callback.
   void propagate(const ImuMeasurement& raw);

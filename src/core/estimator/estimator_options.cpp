@@ -50,6 +50,7 @@ Status validate(const EstimatorOptions& o) {
     return Status::Error("estimator option " + key + ": " + why);
   };
   if (o.window_size < 3) return bad("window_size", "must be at least 3");
+  if (o.carried_tags < 0) return bad("carried_tags", "must be zero (every tag) or positive");
   if (o.max_iterations < 1) return bad("max_iterations", "must be at least 1");
   if (o.solve_every < 1 || o.solve_every >= o.window_size) {
     return bad("solve_every",

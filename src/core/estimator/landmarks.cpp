@@ -57,6 +57,12 @@ double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera, co
                                const TagObservation& tag, const std::function<SE3()>& T_G_C_at) {
   const auto found = landmarks_.find(tag.tag_id);
   if (found != landmarks_.end()) return found->second->x;
+  const auto left = left_.find(tag.tag_id);
+  if (left != left_.end()) {
+    auto landmark = std::make_unique<TagLandmark>(left->second);
+    left_.erase(left);
+    return add(problem, tag.tag_id, std::move(landmark));
+  }
   const SE3 T_G_C = T_G_C_at();
   // One view of a tag tells its size only through the others': tags of one size are assumed
   // (another size starts at the wrong depth, which the following views correct).
@@ -71,14 +77,21 @@ double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera, co
   if (!Eigen::Map<const Eigen::Matrix<double, kTagLandmarkSize, 1>>(landmark->x).allFinite()) {
     return nullptr;
   }
+  return add(problem, tag.tag_id, std::move(landmark));
+}
+
+double* Landmarks::add(ceres::Problem* problem, int id, std::unique_ptr<TagLandmark> landmark) {
+  landmark->carried = carried_limit_ <= 0 || carried_count_ < carried_limit_;
   problem->AddParameterBlock(landmark->x, kTagLandmarkSize);
+  if (landmark->carried) ++carried_count_;
   double* block = landmark->x;
-  ids_[block] = tag.tag_id;
-  landmarks_[tag.tag_id] = std::move(landmark);
+  ids_[block] = id;
+  landmarks_[id] = std::move(landmark);
   return block;
 }
 
-std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>& states) const {
+std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>& states,
+                                        bool own) const {
   if (landmarks_.empty()) return {};
   const State& oldest = *states.front();
   std::set<const double*> kept;
@@ -94,15 +107,28 @@ std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>
   std::set<const double*> seen;
   for (const auto& r : oldest.residuals) {
     for (double* b : r.blocks) {
-      if (ids_.count(b) && !kept.count(b) && seen.insert(b).second) out.push_back(b);
+      if (ids_.count(b) && (!kept.count(b) || (own && !carried(b))) && seen.insert(b).second) {
+        out.push_back(b);
+      }
     }
   }
   return out;
 }
 
+bool Landmarks::carried(const double* block) const {
+  const auto id = ids_.find(block);
+  return id != ids_.end() && landmarks_.at(id->second)->carried;
+}
+
 void Landmarks::remove(double* block) {
   const auto id = ids_.find(block);
   if (id == ids_.end()) return;
+  const TagLandmark& landmark = *landmarks_.at(id->second);
+  if (landmark.carried) {
+    --carried_count_;
+  } else {
+    left_[id->second] = landmark;
+  }
   landmarks_.erase(id->second);
   ids_.erase(id);
 }
@@ -117,6 +143,8 @@ std::map<int, std::array<Eigen::Vector3d, 4>> Landmarks::corners() const {
 
 void Landmarks::clear() {
   landmarks_.clear();
+  left_.clear();
+  carried_count_ = 0;
   ids_.clear();
 }
 

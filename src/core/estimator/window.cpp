@@ -77,6 +77,21 @@ SolveSummary Window::summary() const {
   return out;
 }
 
+void Window::moveToOldest(const std::set<const double*>& blocks) {
+  if (blocks.empty()) return;
+  State& oldest = *states_.front();
+  for (std::size_t k = 1; k < states_.size(); ++k) {
+    std::vector<ResidualRecord>& records = states_[k]->residuals;
+    std::vector<ResidualRecord> stay;
+    for (auto& r : records) {
+      const bool touches = std::any_of(r.blocks.begin(), r.blocks.end(),
+                                       [&](const double* b) { return blocks.count(b) > 0; });
+      (touches ? oldest.residuals : stay).push_back(std::move(r));
+    }
+    records = std::move(stay);
+  }
+}
+
 void Window::removeOldest(const std::vector<double*>& leaving) {
   const State& oldest = *states_.front();
   for (const auto& r : oldest.residuals) problem_->RemoveResidualBlock(r.id);

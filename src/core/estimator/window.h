@@ -11,6 +11,7 @@
 
 #include <deque>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "window_state.h"
@@ -54,6 +55,9 @@ class Window {
   // results differ from run to run), then the `leaving` parameter blocks; its estimate joins
   // past().
   void removeOldest(const std::vector<double*>& leaving);
+  // Moves every later state's residual records that touch one of `blocks` to the oldest state's
+  // (in time and record order): they are marginalized and removed with it.
+  void moveToOldest(const std::set<const double*>& blocks);
   const std::vector<EstimatorState>& past() const { return past_; }
 
  private:

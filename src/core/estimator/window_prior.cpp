@@ -1,5 +1,6 @@
 #include "window_prior.h"
 
+#include <algorithm>
 #include <set>
 
 namespace mvis {
@@ -9,9 +10,13 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
     const ManifoldOf& manifold_of,
     const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
-    const std::set<const double*>& fixed) const {
+    const std::set<const double*>& fixed, const std::set<const double*>& alone, bool semidefinite,
+    bool rows) const {
   Marginalizer m;
+  if (semidefinite) m.allowSemidefinite();
+  if (!rows) m.informationOnly();
   for (const double* block : fixed) m.setFixed(block);
+  for (const double* block : alone) m.eliminateAlone(block);
   for (const auto& r : residuals) {
     for (double* block : r.blocks) m.setManifold(block, manifold_of(block));
     m.addResidual(r.cost, r.loss, r.blocks, true);
@@ -32,6 +37,10 @@ void WindowPrior::removeFrom(ceres::Problem* problem) {
 }
 
 void WindowPrior::install(ceres::Problem* problem, std::unique_ptr<MarginalizationFactor> prior) {
+  if (prior->J0().rows() == 0) {  // information only
+    whole_ = std::move(prior);
+    return;
+  }
   for (auto& rows : prior->splitRows()) {
     ResidualRecord r;
     r.blocks = rows->parameterBlocks();
@@ -40,6 +49,12 @@ void WindowPrior::install(ceres::Problem* problem, std::unique_ptr<Marginalizati
     rows_.push_back(std::move(r));
   }
   whole_ = std::move(prior);
+}
+
+bool WindowPrior::holds(const double* block) const {
+  if (!whole_) return false;
+  const auto& blocks = whole_->parameterBlocks();
+  return std::find(blocks.begin(), blocks.end(), block) != blocks.end();
 }
 
 void WindowPrior::clear() {

@@ -32,17 +32,23 @@ class WindowPrior {
   // changes in the problem yet. Blocks in `fixed` (constant for the whole run) are conditioned
   // on, as the solves do. The measurements add nothing along `uninformative` (per block,
   // tangent directions as columns, and the variance each keeps while held:
-  // marginalization_factor.h); the old prior keeps what earlier motion told.
+  // marginalization_factor.h); the old prior keeps what earlier motion told. The leaving blocks
+  // in `alone` couple to few others and are eliminated one at a time, and a semi-definite result
+  // is factored as such with `semidefinite` (Marginalizer). Without `rows` it is made as its
+  // information only, for the next marginalization alone (install adds nothing to the problem).
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(
       const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
       const ManifoldOf& manifold_of,
       const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
-      const std::set<const double*>& fixed) const;
+      const std::set<const double*>& fixed, const std::set<const double*>& alone = {},
+      bool semidefinite = false, bool rows = true) const;
   // Removes the current prior's rows from the problem and forgets it.
   void removeFrom(ceres::Problem* problem);
   // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense
   // prior is its largest cost with many auxiliary sensors).
   void install(ceres::Problem* problem, std::unique_ptr<MarginalizationFactor> prior);
+  // Whether the prior is on the block.
+  bool holds(const double* block) const;
   // Forgets the prior without touching a problem (when the problem itself is replaced).
   void clear();
 

@@ -1,80 +1,34 @@
 #include "mvis/factors/marginalization_factor.h"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
+#include "scaled_factorization.h"
+
 namespace mvis {
 namespace {
+
+using scaled_factorization::pseudoInverse;
+using scaled_factorization::ScaledCholesky;
+using scaled_factorization::scaledCholesky;
+using scaled_factorization::ScaledEigen;
+using scaled_factorization::scaledEigen;
+using scaled_factorization::scaledSemidefiniteFactor;
 
 int tangentSize(const ceres::Manifold* manifold, int ambient) {
   return manifold != nullptr ? manifold->TangentSize() : ambient;
 }
 
-// Eigen-decomposition of a symmetric positive semi-definite A after Jacobi scaling,
-// A = D^1/2 (V diag(l) V^T) D^1/2 with D = diag(A): the information of the blocks spans many
-// orders of magnitude (biases ~1e10, gravity ~1), and scaling makes the threshold on l
-// relative to each direction's own scale. Eigenvalues l <= eps count as zero.
-struct ScaledEigen {
-  Eigen::VectorXd sqrt_d;  // D^1/2
-  Eigen::VectorXd l;
-  Eigen::MatrixXd V;
-  std::vector<int> kept;  // indices of l > eps
-};
-
-ScaledEigen scaledEigen(const Eigen::MatrixXd& A, double eps) {
-  ScaledEigen out;
-  out.sqrt_d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const Eigen::VectorXd inv = out.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
-  const Eigen::MatrixXd B = inv.asDiagonal() * A * inv.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (B + B.transpose()));
-  out.l = es.eigenvalues();
-  out.V = es.eigenvectors();
-  for (int i = 0; i < out.l.size(); ++i) {
-    if (out.l[i] > eps) out.kept.push_back(i);
-  }
-  return out;
-}
-
-// Cholesky factor of the Jacobi-scaled matrix, D^-1/2 A D^-1/2 = L L^T, when A is clearly
-// positive definite: every pivot L_ii^2 above kPivot (the scaled diagonal is 1, so pivots are
-// relative; a rank-deficient matrix leaves round-off pivots near 1e-16). Otherwise the
-// eigen-decomposition decides what counts as zero.
-constexpr double kPivot = 1e-10;
-
-struct ScaledCholesky {
-  Eigen::VectorXd sqrt_d;  // D^1/2
-  Eigen::MatrixXd L;       // lower triangular
-};
-
-bool scaledCholesky(const Eigen::MatrixXd& A, ScaledCholesky* out) {
-  const Eigen::VectorXd d = A.diagonal();
-  if ((d.array() <= 0.0).any()) return false;
-  out->sqrt_d = d.cwiseSqrt();
-  const Eigen::VectorXd inv = out->sqrt_d.cwiseInverse();
-  Eigen::MatrixXd B = inv.asDiagonal() * A * inv.asDiagonal();
-  Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (B + B.transpose()));
-  if (llt.info() != Eigen::Success) return false;
-  out->L = llt.matrixL();
-  return out->L.diagonal().cwiseAbs2().minCoeff() > kPivot;
-}
-
-// Pseudo-inverse of a symmetric positive semi-definite matrix.
-Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& A, double eps) {
-  ScaledCholesky c;
-  if (scaledCholesky(A, &c)) {
-    // A^-1 = D^-1/2 L^-T L^-1 D^-1/2.
-    Eigen::MatrixXd Li = Eigen::MatrixXd::Identity(A.rows(), A.cols());
-    c.L.triangularView<Eigen::Lower>().solveInPlace(Li);
-    const Eigen::MatrixXd M = Li * c.sqrt_d.cwiseInverse().asDiagonal();
-    return M.transpose() * M;
-  }
-  const ScaledEigen e = scaledEigen(A, eps);
-  const Eigen::VectorXd inv_d = e.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
-  Eigen::MatrixXd inner = Eigen::MatrixXd::Zero(A.rows(), A.cols());
-  for (int i : e.kept) inner += e.V.col(i) * e.V.col(i).transpose() / e.l[i];
-  return inv_d.asDiagonal() * inner * inv_d.asDiagonal();
+// The prior with rows J0, r0 and the information they keep of Hs and gs (J0^T J0, J0^T r0: the
+// directions a factorization dropped are not in J0).
+std::unique_ptr<MarginalizationFactor> withKeptInformation(
+    std::vector<MarginalizationFactor::Block> kept, Eigen::MatrixXd J0, Eigen::VectorXd r0) {
+  Eigen::MatrixXd H0 = J0.transpose() * J0;
+  Eigen::VectorXd g0 = J0.transpose() * r0;
+  auto made =
+      std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
+  made->setInformation(std::move(H0), std::move(g0));
+  return made;
 }
 
 }  // namespace
@@ -321,8 +275,17 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
     H += Hp;
     g += gp;
   }
+  eliminateAlone(&out, &H, &g, eps);
+  m = 0;
+  for (std::size_t i = 0; i < out.dropped; ++i) m += entries[i].tangent;
+  n = static_cast<int>(H.rows());
 
   const int k = n - m;
+  if (m == 0) {  // every dropped block went alone
+    out.H = std::move(H);
+    out.g = std::move(g);
+    return out;
+  }
   const Eigen::MatrixXd Hmm_inv = pseudoInverse(H.topLeftCorner(m, m), eps);
   const Eigen::MatrixXd Hkm = H.bottomLeftCorner(k, m);
   const Eigen::MatrixXd HkmHmm_inv = Hkm * Hmm_inv;
@@ -330,6 +293,81 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
   out.g = g.tail(k) - HkmHmm_inv * g.head(m);
   for (std::size_t i = out.dropped; i < entries.size(); ++i) entries[i].offset -= m;
   return out;
+}
+
+void Marginalizer::eliminateAlone(Reduced* out, Eigen::MatrixXd* H, Eigen::VectorXd* g,
+                                  double eps) const {
+  std::vector<Entry>& entries = out->entries;
+  std::vector<bool> gone(entries.size(), false);
+  bool any = false;
+  for (std::size_t i = 0; i < out->dropped; ++i) {
+    const Entry& e = entries[i];
+    if (!alone_.count(e.address)) continue;
+    // The blocks it couples to, and its rows of H over their columns.
+    std::vector<std::size_t> near;
+    int q = 0;
+    for (std::size_t j = 0; j < entries.size(); ++j) {
+      if (j == i || gone[j]) continue;
+      if (H->block(e.offset, entries[j].offset, e.tangent, entries[j].tangent).isZero(0.0))
+        continue;
+      near.push_back(j);
+      q += entries[j].tangent;
+    }
+    Eigen::MatrixXd B(e.tangent, q);
+    int col = 0;
+    for (std::size_t j : near) {
+      B.middleCols(col, entries[j].tangent) =
+          H->block(e.offset, entries[j].offset, e.tangent, entries[j].tangent);
+      col += entries[j].tangent;
+    }
+    const Eigen::MatrixXd BtInv =
+        B.transpose() * pseudoInverse(H->block(e.offset, e.offset, e.tangent, e.tangent), eps);
+    const Eigen::MatrixXd S = BtInv * B;
+    const Eigen::VectorXd s = BtInv * g->segment(e.offset, e.tangent);
+    int ca = 0;
+    for (std::size_t a : near) {
+      const Entry& ea = entries[a];
+      g->segment(ea.offset, ea.tangent) -= s.segment(ca, ea.tangent);
+      int cb = 0;
+      for (std::size_t b : near) {
+        const Entry& eb = entries[b];
+        H->block(ea.offset, eb.offset, ea.tangent, eb.tangent) -=
+            S.block(ca, cb, ea.tangent, eb.tangent);
+        cb += eb.tangent;
+      }
+      ca += ea.tangent;
+    }
+    gone[i] = true;
+    any = true;
+  }
+  if (!any) return;
+  // The rest, without the eliminated blocks' rows and columns.
+  std::vector<Entry> rest;
+  std::vector<int> from;  // each kept entry's offset in H
+  std::size_t dropped = 0;
+  int n = 0;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (gone[i]) continue;
+    rest.push_back(entries[i]);
+    from.push_back(entries[i].offset);
+    rest.back().offset = n;
+    n += entries[i].tangent;
+    if (i < out->dropped) ++dropped;
+  }
+  Eigen::MatrixXd Hr(n, n);
+  Eigen::VectorXd gr(n);
+  for (std::size_t a = 0; a < rest.size(); ++a) {
+    const int ta = rest[a].tangent;
+    gr.segment(rest[a].offset, ta) = g->segment(from[a], ta);
+    for (std::size_t b = 0; b < rest.size(); ++b) {
+      Hr.block(rest[a].offset, rest[b].offset, ta, rest[b].tangent) =
+          H->block(from[a], from[b], ta, rest[b].tangent);
+    }
+  }
+  entries = std::move(rest);
+  out->dropped = dropped;
+  *H = std::move(Hr);
+  *g = std::move(gr);
 }
 
 StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
@@ -352,6 +390,12 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
     block.x0.assign(e.address, e.address + e.ambient);
     kept.push_back(std::move(block));
   }
+  if (information_only_) {
+    auto made = std::make_unique<MarginalizationFactor>(std::move(kept), Eigen::MatrixXd(0, k),
+                                                        Eigen::VectorXd(0));
+    made->setInformation(Hs, gs);
+    return made;
+  }
 
   // Hs = J0^T J0 with J0 = L^T D^1/2 (clearly positive definite), r0 = L^-1 D^-1/2 gs.
   ScaledCholesky c;
@@ -363,6 +407,24 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
         std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
     made->setInformation(Hs, gs);  // J0^T J0 = Hs, J0^T r0 = gs
     return made;
+  }
+  // Semi-definite, where allowed (allowSemidefinite): LDL^T over the kept pivots, J0 = J D^1/2,
+  // r0 from the lower-triangular L_kept D^1/2 r0 = D^-1/2 gs on the kept rows.
+  Eigen::VectorXd sqrt_d;
+  Eigen::MatrixXd J;
+  std::vector<int> pivots;
+  if (semidefinite_ && scaledSemidefiniteFactor(Hs, eps, &sqrt_d, &J, &pivots) && !pivots.empty()) {
+    const Eigen::VectorXd inv_d = sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+    const Eigen::VectorXd gs_scaled = inv_d.asDiagonal() * gs;
+    const auto rows = static_cast<Eigen::Index>(pivots.size());
+    Eigen::MatrixXd T(rows, rows);  // J's columns at the pivots: upper triangular
+    Eigen::VectorXd rhs(rows);
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      T.col(i) = J.col(pivots[i]);
+      rhs[i] = gs_scaled[pivots[i]];
+    }
+    return withKeptInformation(std::move(kept), J * sqrt_d.asDiagonal(),
+                               T.transpose().triangularView<Eigen::Lower>().solve(rhs));
   }
   // Otherwise J0 = diag(sqrt(l)) V^T D^1/2 over the scaled eigenvalues l > eps; r0 solves
   // J0^T r0 = gs.
@@ -378,13 +440,7 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
     J0.row(i) = s * v.transpose() * es.sqrt_d.asDiagonal();
     r0[i] = v.dot(gs_scaled) / s;
   }
-  // What it keeps of Hs and gs (the eigenvalues it dropped are not in J0).
-  Eigen::MatrixXd H0 = J0.transpose() * J0;
-  Eigen::VectorXd g0 = J0.transpose() * r0;
-  auto made =
-      std::make_unique<MarginalizationFactor>(std::move(kept), std::move(J0), std::move(r0));
-  made->setInformation(std::move(H0), std::move(g0));
-  return made;
+  return withKeptInformation(std::move(kept), std::move(J0), std::move(r0));
 }
 
 MarginalizationFactor::MarginalizationFactor(std::vector<Block> blocks, Eigen::MatrixXd J0,
