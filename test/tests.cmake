@@ -9,6 +9,7 @@ function(mvis_core_test name)
 endfunction()
 
 mvis_core_test(test_lie test/unit/test_lie.cpp)
+mvis_core_test(test_tag_landmark_manifold test/unit/test_tag_landmark_manifold.cpp)
 mvis_core_test(test_rig_io test/unit/test_rig_io.cpp test/unit/test_rig_io_errors.cpp
   test/unit/test_rig_io_formats.cpp)
 

@@ -64,8 +64,9 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   ASSERT_TRUE(estimator->initialized()) << estimator->status();
   ASSERT_TRUE(estimator->computeCovariance().ok());
   const Rig estimate = estimator->calibration();
-  // Measured (seed 3, 15 s, 12 tags carried): 0.009-0.018 deg, 0.72-1.01 mm, 0.032-0.058 ms, at
-  // most 1.4 sigma (every tag carried: 0.007-0.012 deg, 0.81-1.02 mm, 0.042-0.069 ms, 1.8 sigma);
+  // Measured (seed 3, 15 s, 12 tags carried): 0.009-0.017 deg, 0.74-1.02 mm, 0.033-0.059 ms, at
+  // most 1.4 sigma (every tag carried, 12 corners each: 0.007-0.012 deg, 0.81-1.02 mm,
+  // 0.042-0.069 ms, 1.8 sigma);
   // with the board (test_estimator, 20 s): <= 0.013 deg, 0.44 mm, 0.043 ms. The time offsets'
   // bound is their 3 sigma after 15 s.
   expectCalibratedWithoutBoard(run, estimate, "");
@@ -90,8 +91,8 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   corner_rms = std::sqrt(corner_rms / col);
   std::printf("%zu tags: corners %.3f mm RMS off the board, side %.3f mm (true %.3f)\n",
               landmarks.size(), corner_rms * 1e3, side * 1e3, board.tag_size * 1e3);
-  // Measured: 0.28 mm RMS over the 12 tags in the window at the end (every tag carried: 0.34 mm
-  // over 36), the side 0.01 mm short. The scale comes from the accelerometer alone: a 1% scale
+  // Measured: 0.23 mm RMS over the 12 tags in the window at the end (every tag carried, 12 corners
+  // each: 0.34 mm over 36), the side 0.002 mm short. The scale comes from the accelerometer alone: a 1% scale
   // error would be 0.9 mm on the side.
   EXPECT_LT(corner_rms, 1e-3);
   EXPECT_NEAR(side, board.tag_size, 2e-4);
@@ -117,7 +118,7 @@ TEST(EstimatorLandmarks, CalibratesWithTagCornersAsLandmarks) {
   std::printf(
       "ATE after 5 s, board frame by the tags' alignment: %.2f mm, best rigid fit %.2f mm\n",
       ate * 1e3, aligned * 1e3);
-  // Measured 0.98 mm (every tag carried 1.14; with the board, 20 s: about 1 mm). The best rigid
+  // Measured 0.96 mm (every tag carried, 12 corners each, 1.14; with the board, 20 s: about 1 mm). The best rigid
   // fit of the trajectory itself (positionRmse's alignment) cannot do worse than the tags'
   // transform.
   EXPECT_LT(ate, 3e-3);
@@ -142,7 +143,7 @@ TEST(EstimatorLandmarks, CarriesAtMostTheConfiguredTags) {
   std::printf("at most %d tags carried of %d in the window\n", most_carried, most_landmarks);
   EXPECT_EQ(most_carried, 4);
   EXPECT_GE(most_landmarks, 30);  // nearly every tag of the board is in view at some point
-  // Measured: 0.004-0.018 deg, 1.00-1.27 mm, 0.051-0.082 ms, at most 1.6 sigma.
+  // Measured: 0.005-0.016 deg, 1.02-1.29 mm, 0.053-0.084 ms, at most 1.6 sigma.
   expectCalibratedWithoutBoard(run, estimator->calibration(), "carrying 4 tags, ");
 }
 
@@ -216,8 +217,8 @@ TEST(EstimatorLandmarks, PoseCovarianceIsHonestWithoutTheBoard) {
               nees_rotation, nees_position);
   ASSERT_GE(poses.size(), 15u);
   // The bound per run, [1.5, 6] for 3 degrees of freedom, on the side that matters: an
-  // overconfident covariance. Measured 1.88 and 3.61 over 25 poses (every tag carried: 1.56 and
-  // 3.03; with the auxiliary sensors in the first batch 7.35 and 12.93).
+  // overconfident covariance. Measured 1.90 and 3.65 over 25 poses (every tag carried, 12 corners
+  // each: 1.56 and 3.03; with the auxiliary sensors in the first batch 7.35 and 12.93).
   EXPECT_LT(nees_rotation, 6.0);
   EXPECT_LT(nees_position, 6.0);
 }

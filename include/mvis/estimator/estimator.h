@@ -99,7 +99,8 @@ struct EstimatorOptions {
   double imu_integration_step_s = 0.0025;
   int window_size = 4;  // states kept in the window (>= 3)
   // Without a board: the most tags whose corners the window carries across marginalizations (in
-  // its prior, which is dense over them: its cost grows with the cube of their number). A tag
+  // its prior, which is dense over them: its cost grows with the cube of their number; each is
+  // kept a square of unknown size, 7 values). A tag
   // beyond them is a landmark of the window alone: it leaves with the oldest state that sees it,
   // with every observation of it, and starts again from its next view (as a multi-state
   // constraint on the states and calibration that saw it). 0: every tag carried.

@@ -1,5 +1,6 @@
 #include "landmarks.h"
 
+#include <algorithm>
 #include <set>
 
 #include "mvis/estimator/initialization.h"
@@ -82,7 +83,17 @@ double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera, co
 
 double* Landmarks::add(ceres::Problem* problem, int id, std::unique_ptr<TagLandmark> landmark) {
   landmark->carried = carried_limit_ <= 0 || carried_count_ < carried_limit_;
-  problem->AddParameterBlock(landmark->x, kTagLandmarkSize);
+  if (landmark->carried) {
+    // Made a square (a window's own tag starting again is carried once there is room: its
+    // corners were free).
+    const double zero[7] = {0, 0, 0, 0, 0, 0, 0};
+    double square[kTagLandmarkSize];
+    if (square_.Plus(landmark->x, zero, square))
+      std::copy(square, square + kTagLandmarkSize, landmark->x);
+    problem->AddParameterBlock(landmark->x, kTagLandmarkSize, &square_);
+  } else {
+    problem->AddParameterBlock(landmark->x, kTagLandmarkSize);
+  }
   if (landmark->carried) ++carried_count_;
   double* block = landmark->x;
   ids_[block] = id;

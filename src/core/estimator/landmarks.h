@@ -2,7 +2,8 @@
 // starts, one tag per camera (its largest) gives that camera's poses at unit side; then every tag
 // starts from one view, placed with the camera pose at that frame, and leaves the window
 // (marginalized into the prior) with the last state that sees it. At most `carried` tags are
-// carried that way (the prior is dense over them); a tag beyond them is a landmark of the window
+// carried that way (the prior is dense over them), each kept a square of unknown size
+// (TagLandmarkManifold: 7 values instead of 12); a tag beyond them is a landmark of the window
 // alone: it leaves with the oldest state that sees it, together with every observation of it in
 // the window (they tell the states and the calibration what they tell through it, as a
 // multi-state constraint), and starts again from its next view. Private to src/core/estimator.
@@ -21,6 +22,7 @@
 #include <memory>
 #include <vector>
 
+#include "mvis/factors/tag_landmark_manifold.h"
 #include "mvis/factors/tag_reprojection_factor.h"
 #include "window_state.h"
 
@@ -70,6 +72,7 @@ class Landmarks {
   // The mean side of the landmarks' tags [m] (the guess for a new tag's size).
   double meanTagSide() const;
 
+  TagLandmarkManifold square_;  // every landmark block's: a square of unknown size
   std::map<int, std::unique_ptr<TagLandmark>> landmarks_;
   // Where the window's own landmarks that left were, by tag id (until they start again).
   std::map<int, TagLandmark> left_;
