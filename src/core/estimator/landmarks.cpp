@@ -88,8 +88,9 @@ double* Landmarks::add(ceres::Problem* problem, int id, std::unique_ptr<TagLandm
     // corners were free).
     const double zero[7] = {0, 0, 0, 0, 0, 0, 0};
     double square[kTagLandmarkSize];
-    if (square_.Plus(landmark->x, zero, square))
+    if (square_.Plus(landmark->x, zero, square)) {
       std::copy(square, square + kTagLandmarkSize, landmark->x);
+    }
     problem->AddParameterBlock(landmark->x, kTagLandmarkSize, &square_);
   } else {
     problem->AddParameterBlock(landmark->x, kTagLandmarkSize);
