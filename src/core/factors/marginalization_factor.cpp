@@ -8,6 +8,7 @@
 namespace mvis {
 namespace {
 
+using scaled_factorization::inverseOrZero;
 using scaled_factorization::pseudoInverse;
 using scaled_factorization::ScaledCholesky;
 using scaled_factorization::scaledCholesky;
@@ -308,8 +309,9 @@ void Marginalizer::eliminateAlone(Reduced* out, Eigen::MatrixXd* H, Eigen::Vecto
     int q = 0;
     for (std::size_t j = 0; j < entries.size(); ++j) {
       if (j == i || gone[j]) continue;
-      if (H->block(e.offset, entries[j].offset, e.tangent, entries[j].tangent).isZero(0.0))
+      if (H->block(e.offset, entries[j].offset, e.tangent, entries[j].tangent).isZero(0.0)) {
         continue;
+      }
       near.push_back(j);
       q += entries[j].tangent;
     }
@@ -414,7 +416,7 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
   Eigen::MatrixXd J;
   std::vector<int> pivots;
   if (semidefinite_ && scaledSemidefiniteFactor(Hs, eps, &sqrt_d, &J, &pivots) && !pivots.empty()) {
-    const Eigen::VectorXd inv_d = sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+    const Eigen::VectorXd inv_d = inverseOrZero(sqrt_d);
     const Eigen::VectorXd gs_scaled = inv_d.asDiagonal() * gs;
     const auto rows = static_cast<Eigen::Index>(pivots.size());
     Eigen::MatrixXd T(rows, rows);  // J's columns at the pivots: upper triangular
@@ -430,7 +432,7 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> Marginalizer::marginalize(
   // J0^T r0 = gs.
   const ScaledEigen es = scaledEigen(Hs, eps);
   if (es.kept.empty()) return Status::Error("marginalization left no information");
-  const Eigen::VectorXd inv_d = es.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::VectorXd inv_d = inverseOrZero(es.sqrt_d);
   const Eigen::VectorXd gs_scaled = inv_d.asDiagonal() * gs;
   Eigen::MatrixXd J0(es.kept.size(), k);
   Eigen::VectorXd r0(es.kept.size());

@@ -7,10 +7,14 @@
 namespace mvis {
 namespace scaled_factorization {
 
+Eigen::VectorXd inverseOrZero(const Eigen::VectorXd& v) {
+  return v.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+}
+
 ScaledEigen scaledEigen(const Eigen::MatrixXd& A, double eps) {
   ScaledEigen out;
   out.sqrt_d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const Eigen::VectorXd inv = out.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::VectorXd inv = inverseOrZero(out.sqrt_d);
   const Eigen::MatrixXd B = inv.asDiagonal() * A * inv.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (B + B.transpose()));
   out.l = es.eigenvalues();
@@ -37,7 +41,7 @@ bool scaledSemidefiniteFactor(const Eigen::MatrixXd& A, double eps, Eigen::Vecto
                               Eigen::MatrixXd* J, std::vector<int>* pivots) {
   const Eigen::Index n = A.rows();
   *sqrt_d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const Eigen::VectorXd inv = sqrt_d->unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::VectorXd inv = inverseOrZero(*sqrt_d);
   const Eigen::MatrixXd S = inv.asDiagonal() * A * inv.asDiagonal();
   Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);  // column j: L_:j sqrt(d_j)
   pivots->clear();
@@ -66,7 +70,7 @@ Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& A, double eps) {
     return M.transpose() * M;
   }
   const ScaledEigen e = scaledEigen(A, eps);
-  const Eigen::VectorXd inv_d = e.sqrt_d.unaryExpr([](double x) { return x > 0 ? 1.0 / x : 0.0; });
+  const Eigen::VectorXd inv_d = inverseOrZero(e.sqrt_d);
   Eigen::MatrixXd inner = Eigen::MatrixXd::Zero(A.rows(), A.cols());
   for (int i : e.kept) inner += e.V.col(i) * e.V.col(i).transpose() / e.l[i];
   return inv_d.asDiagonal() * inner * inv_d.asDiagonal();

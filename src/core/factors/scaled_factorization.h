@@ -10,6 +10,9 @@
 namespace mvis {
 namespace scaled_factorization {
 
+// 1 / v per element, 0 where v is not positive (a scale D^1/2 with a zero on the diagonal).
+Eigen::VectorXd inverseOrZero(const Eigen::VectorXd& v);
+
 // A = D^1/2 (V diag(l) V^T) D^1/2; eigenvalues l <= eps count as zero.
 struct ScaledEigen {
   Eigen::VectorXd sqrt_d;  // D^1/2
