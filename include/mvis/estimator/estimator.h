@@ -459,8 +459,9 @@ class Estimator {
   Status computeCovariance();
   // Every state that has left the window, then the window's.
   std::vector<EstimatorState> trajectory() const;
-  // Without a board (no aprilgrid.yaml): the current estimate of every tag corner in the window,
-  // by tag id, in the world frame (corner order of tag_observation.h). Empty with a board.
+  // Without a board (no aprilgrid.yaml): the current estimate of the carried tags' corners (at
+  // most carried_tags tags; the others are the window's own, placed by its few states alone), by
+  // tag id, in the world frame (corner order of tag_observation.h). Empty with a board.
   std::map<int, std::array<Eigen::Vector3d, 4>> landmarks() const;
   // What the estimator is doing, for diagnostics and logs ("initializing: 4 of 10 frames").
   std::string status() const;

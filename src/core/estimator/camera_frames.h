@@ -56,6 +56,9 @@ class CameraFrames {
   // single corners over `sigma` (0: no such bound; the estimator sets options.frame_gate_sigma
   // once a calibration is trusted).
   void setGate(double sigma) { gate_sigma_ = sigma; }
+  // Without a board: frames owned by a state before `k` enter with the carried tags only (the
+  // first batch's states that are cut to the window; 0: every tag, the default).
+  void carriedTagsOnlyBefore(std::size_t k) { carried_only_before_ = k; }
   // The cameras' recent residuals and the bound are forgotten (the calibration starts over from
   // the configured one: its residuals are not the cameras').
   void forgetResiduals();
@@ -97,6 +100,7 @@ class CameraFrames {
   std::unique_ptr<ceres::LossFunction> huber_;
   std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses_;
   double gate_sigma_ = 0.0;
+  std::size_t carried_only_before_ = 0;
   std::vector<std::deque<double>> recent_;  // per camera, its entered frames' median residuals
   std::string warning_;
   TimeNs last_entered_ = std::numeric_limits<TimeNs>::min();

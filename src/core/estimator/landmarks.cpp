@@ -132,6 +132,12 @@ bool Landmarks::carried(const double* block) const {
   return id != ids_.end() && landmarks_.at(id->second)->carried;
 }
 
+bool Landmarks::wouldCarry(int id) const {
+  const auto found = landmarks_.find(id);
+  if (found != landmarks_.end()) return found->second->carried;
+  return carried_limit_ <= 0 || carried_count_ < carried_limit_;
+}
+
 void Landmarks::remove(double* block) {
   const auto id = ids_.find(block);
   if (id == ids_.end()) return;
@@ -148,6 +154,7 @@ void Landmarks::remove(double* block) {
 std::map<int, std::array<Eigen::Vector3d, 4>> Landmarks::corners() const {
   std::map<int, std::array<Eigen::Vector3d, 4>> out;
   for (const auto& [id, landmark] : landmarks_) {
+    if (!landmark->carried) continue;
     for (int k = 0; k < 4; ++k) out[id][k] = Eigen::Vector3d(landmark->x + 3 * k);
   }
   return out;

@@ -54,9 +54,12 @@ class Landmarks {
   std::vector<double*> leaving(const std::deque<std::unique_ptr<State>>& states, bool own) const;
   // Whether the landmark is carried across marginalizations.
   bool carried(const double* block) const;
+  // Whether the tag's landmark is carried, or would be if it were made now.
+  bool wouldCarry(int id) const;
   // Forgets a landmark (after its block left the problem).
   void remove(double* block);
-  // Every landmark's corners in the world frame, by tag id.
+  // The carried landmarks' corners in the world frame, by tag id (the window's own tags are
+  // placed by the window's few states alone: centimetres off, so not reported).
   std::map<int, std::array<Eigen::Vector3d, 4>> corners() const;
   // Forgets every landmark (the problem is replaced); resetPoseTags also every pose tag.
   void clear();
