@@ -1,5 +1,7 @@
 #include "window.h"
 
+#include <omp.h>
+
 #include <algorithm>
 
 namespace mvis {
@@ -50,6 +52,14 @@ SolveSummary Window::solve(int iterations, double max_time_s, ceres::IterationCa
   o.max_num_iterations = iterations;
   o.max_solver_time_in_seconds = max_time_s;
   o.num_threads = options_.threads;
+  // SuiteSparse's CHOLMOD (Ceres's sparse Cholesky) runs parts of its supernodal factorization
+  // on a number of OpenMP threads fixed when it is built (CHOLMOD_OMP_NUM_THREADS, 4 by default;
+  // seen here: three besides the caller, whatever num_threads or omp_set_num_threads say). Held
+  // to one core they took turns with the solve: a 100-tag no-board run spent a tenth of its time
+  // in them and was 20-27% slower. Dynamic adjustment lets OpenMP give a region only the cores that
+  // are free (affinity and load), one here; the factorization's result does not depend on it (the
+  // runs' outputs are byte-identical). Set per solving thread, as OpenMP keeps it.
+  omp_set_dynamic(1);
   o.logging_type = ceres::SILENT;
   if (callback != nullptr) o.callbacks.push_back(callback);
   ceres::Solver::Summary s;
