@@ -14,7 +14,8 @@
    over the same 0.66 m (the VI-Rig's is 6x6), DURATION s of hand-held motion, mvis_offline
    without the board's file (tag corners as landmarks, the default carried_tags) on one core;
    the estimator's time per tag, and the 6x6 board once more with every tag carried
-   (--carried-tags 0) against the default.
+   (--carried-tags 0) against the default; then the 6x6 and 10x10 boards with the tags beyond
+   the carried ones left out (--no-own-tags).
 
 Usage: bench_aux.py BIN_DIR ROOT OUT_DIR DURATION
 """
@@ -118,7 +119,8 @@ def tags(bin_dir, root, out, duration):
         "tags", "carried", "median [ms]", "p99 [ms]", "real time", "estimator [s]",
         "per tag [s]", "ATE [mm]"))
     span = 0.66  # [m] the VI-Rig board's: 6 tags of 0.088 m with 0.3 of a tag between them
-    for n, carried in [(3, None), (6, None), (10, None), (6, "0")]:
+    for n, carried in [(3, None), (6, None), (10, None), (6, "0"), (6, "no own"),
+                       (10, "no own")]:
         data = os.path.join(out, "tags_%d" % n)
         if not os.path.isdir(data):
             rig = os.path.join(out, "tags_rig_%d" % n)
@@ -137,15 +139,20 @@ def tags(bin_dir, root, out, duration):
             run([os.path.join(bin_dir, "mvis_simulate"), "--rig", rig, "--sim", sim, "--output",
                  data, "--detections"])
             os.remove(os.path.join(data, "config", "aprilgrid.yaml"))
-        extra = ["--carried-tags", carried] if carried is not None else []
-        text = offline(bin_dir, data, os.path.join(out, "tags_result_%d_%s" % (n, carried)),
-                       extra)
+        extra = []
+        if carried == "0":
+            extra = ["--carried-tags", "0"]
+        elif carried == "no own":
+            extra = ["--no-own-tags"]
+        label = (carried or "default").replace(" ", "_")
+        text = offline(bin_dir, data, os.path.join(out, "tags_result_%d_%s" % (n, label)), extra)
         times = re.search(r"median ([\d.]+) ms, p99 ([\d.]+) ms, total ([\d.]+) s", text)
         rt = re.search(r"\(([\d.]+)x real time\)", text)
         ate = re.search(r"^ATE.*?: ([\d.]+) mm over", text, re.M)
         total = float(times.group(3))
         print("%6d %14s %12s %12s %9sx %14.2f %14.3f %10s" % (
-            n * n, "every tag" if carried == "0" else "default", times.group(1), times.group(2),
+            n * n, {"0": "every tag", "no own": "12, no own"}.get(carried, "default"),
+            times.group(1), times.group(2),
             rt.group(1), total, total / (n * n), ate.group(1) if ate else "-"))
 
 

@@ -94,6 +94,7 @@ void MvisNodelet::onInit() {
     EstimatorOptions eo;
     eo.window_size = options_.window_size;
     eo.carried_tags = options_.carried_tags;
+    eo.window_own_tags = options_.window_own_tags;
     eo.pixel_sigma_px = options_.pixel_sigma;
     eo.huber_sigma = options_.huber_sigma;
     eo.robust_loss = options_.robust_loss == "frame" ? RobustLoss::kFrame : RobustLoss::kCorner;

@@ -19,6 +19,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("tag_threads", o.tag_threads, o.tag_threads);
   nh.param("window_size", o.window_size, o.window_size);
   nh.param("carried_tags", o.carried_tags, o.carried_tags);
+  nh.param("window_own_tags", o.window_own_tags, o.window_own_tags);
   nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
   nh.param("huber_sigma", o.huber_sigma, o.huber_sigma);
   nh.param("robust_loss", o.robust_loss, o.robust_loss);

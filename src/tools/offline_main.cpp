@@ -39,7 +39,7 @@ int usage(const char* message) {
                "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
-               "                    [--window N] [--carried-tags N] [--threads N]\n"
+               "                    [--window N] [--carried-tags N] [--no-own-tags] [--threads N]\n"
                "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
                "                    [--aux-model velocity_state|rigid_velocity]\n"
                "                    [--observability-ratio R] [--imu-observability-ratio R]\n"
@@ -69,6 +69,8 @@ int usage(const char* message) {
                "  --window N       states in the sliding window (default 4)\n"
                "  --carried-tags N without a board, the most tags carried across the window's\n"
                "                   marginalizations (default 12, 0: every tag)\n"
+               "  --no-own-tags    without a board, leave out the tags beyond the carried ones\n"
+               "                   (window_own_tags: false; faster, less precise)\n"
                "  --threads N      Ceres's threads for the solves (default 1; with more the\n"
                "                   last digits of the result may vary from run to run)\n"
                "  --max-iterations N  Ceres iterations per update (default 10)\n"
@@ -188,6 +190,7 @@ int main(int argc, char** argv) {
   double max_solve_time = 1e3;
   int window = mvis::EstimatorOptions{}.window_size;
   int carried_tags = mvis::EstimatorOptions{}.carried_tags;
+  bool window_own_tags = mvis::EstimatorOptions{}.window_own_tags;
   int threads = mvis::EstimatorOptions{}.threads;
   int iterations = mvis::EstimatorOptions{}.max_iterations;
   int solve_every = mvis::EstimatorOptions{}.solve_every;
@@ -239,6 +242,8 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) return usage("--threads takes a count >= 1");
       threads = std::atoi(v.c_str());
+    } else if (arg == "--no-own-tags") {
+      window_own_tags = false;
     } else if (arg == "--carried-tags") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 0) return usage("--carried-tags takes a count >= 0");
@@ -348,6 +353,7 @@ int main(int argc, char** argv) {
   options.estimator.imu_integration_step_s = imu_step;
   options.estimator.window_size = window;
   options.estimator.carried_tags = carried_tags;
+  options.estimator.window_own_tags = window_own_tags;
   options.estimator.threads = threads;
   options.estimator.max_iterations = iterations;
   options.estimator.solve_every = solve_every;

@@ -25,12 +25,14 @@ using test::SimRun;
 using test::simulate;
 
 // An estimator for `run`'s rig without its board (tags as landmarks), detections' noise.
-std::unique_ptr<Estimator> withoutBoard(const SimRun& run, int carried_tags = -1) {
+std::unique_ptr<Estimator> withoutBoard(const SimRun& run, int carried_tags = -1,
+                                        bool own_tags = true) {
   Rig guess = run.guess;
   guess.target.reset();
   EstimatorOptions options = deterministic();
   options.pixel_sigma_px = 0.5;
   if (carried_tags >= 0) options.carried_tags = carried_tags;
+  options.window_own_tags = own_tags;
   auto created = Estimator::create(guess, options);
   EXPECT_TRUE(created.ok()) << created.status().message();
   return created.ok() ? std::move(created).value() : nullptr;
@@ -146,6 +148,29 @@ TEST(EstimatorLandmarks, CarriesAtMostTheConfiguredTags) {
   EXPECT_GE(most_landmarks, 30);  // nearly every tag of the board is in view at some point
   // Measured: 0.005-0.016 deg, 1.02-1.29 mm, 0.053-0.084 ms, at most 1.6 sigma.
   expectCalibratedWithoutBoard(run, estimator->calibration(), "carrying 4 tags, ");
+}
+
+// With window_own_tags off the tags beyond the carried ones are left out: the window never holds
+// more than the carried tags, and they alone calibrate the rig.
+TEST(EstimatorLandmarks, LeavesOutTheTagsBeyondTheCarriedOnes) {
+  const SimRun run = simulate("sim_vi_rig", 15.0, 3);
+  std::unique_ptr<Estimator> estimator = withoutBoard(run, 12, false);
+  ASSERT_TRUE(estimator);
+  int most_carried = 0, most_landmarks = 0;
+  estimator->setUpdateCallback([&](const EstimatorUpdate& u) {
+    most_carried = std::max(most_carried, u.solve.carried_landmarks);
+    most_landmarks = std::max(most_landmarks, u.solve.landmarks);
+  });
+  test::feed(run, estimator.get());
+  ASSERT_TRUE(estimator->initialized()) << estimator->status();
+  ASSERT_TRUE(estimator->computeCovariance().ok());
+  std::printf("own tags left out: at most %d tags carried of %d in the window\n", most_carried,
+              most_landmarks);
+  EXPECT_EQ(most_carried, 12);
+  EXPECT_EQ(most_landmarks, 12);  // with the window's own tags: 36
+  // Measured: 0.011-0.025 deg, 0.55-0.76 mm, 0.024-0.077 ms, at most 1.4 sigma (with the own
+  // tags, CalibratesWithTagCornersAsLandmarks: 0.012-0.025 deg, 0.50-0.71 mm, 0.028-0.058 ms).
+  expectCalibratedWithoutBoard(run, estimator->calibration(), "own tags left out, ");
 }
 
 // A rig among scattered tags often sees one at a time: every frame keeps only one of two tags at

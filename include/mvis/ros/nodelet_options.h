@@ -27,6 +27,7 @@ struct NodeletOptions {
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 4;                 // states in the sliding window
   int carried_tags = 12;               // without a board: tags carried in the prior (0: all)
+  bool window_own_tags = true;         // without a board: use the tags beyond them
   double pixel_sigma = 1.0;            // [px] corner noise
   double huber_sigma = 3.0;            // [sigma] camera factors' robust loss, 0: none
   std::string robust_loss = "corner";  // where it acts: "corner" or "frame"

@@ -169,7 +169,10 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   if (!rig_.target) {
     const Camera camera = calibration_.currentCamera(c);  // for the tags seen the first time
     for (const auto& tag : frame.tags) {
-      if (k < carried_only_before_ && !landmarks_.wouldCarry(tag.tag_id)) continue;
+      if ((k < carried_only_before_ || !options_.window_own_tags) &&
+          !landmarks_.wouldCarry(tag.tag_id)) {
+        continue;
+      }
       double* landmark = landmarks_.landmarkFor(window_.problem(), camera, frame, tag,
                                                 [&] { return cameraPoseAt(frame, k); });
       if (landmark == nullptr) continue;
