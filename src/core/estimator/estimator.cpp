@@ -336,16 +336,13 @@ void Estimator::Impl::marginalizeOldest(bool rows) {
   State& oldest = window.oldest();
   std::vector<double*> leaving = {oldest.pose, oldest.speed_bias};
   for (const auto& noise : oldest.propagation_noise) leaving.push_back(noise.get());
-  const std::vector<double*> leaving_landmarks = landmarks.leaving(
-      window.states(), static_cast<int>(window.size()) <= options.window_size + 1);
+  const std::vector<double*> leaving_landmarks = landmarks.leaving(window.states());
   leaving.insert(leaving.end(), leaving_landmarks.begin(), leaving_landmarks.end());
-  // The window's own landmarks leave with every observation of them, each eliminated alone
-  // unless the prior holds it (seen in the first batch).
-  std::set<const double*> own, alone;
+  // The window's own landmarks leave with every observation of them, each eliminated alone (no
+  // prior holds one: the first batch's states cut to the window took the carried tags only).
+  std::set<const double*> own;
   for (const double* block : leaving_landmarks) {
-    if (landmarks.carried(block)) continue;
-    own.insert(block);
-    if (!prior.holds(block)) alone.insert(block);
+    if (!landmarks.carried(block)) own.insert(block);
   }
   window.moveToOldest(own);
   aux.leaving(oldest, &leaving);
@@ -358,7 +355,7 @@ void Estimator::Impl::marginalizeOldest(bool rows) {
   auto made = prior.marginalize(
       oldest.residuals, leaving,
       [this](const double* block) { return monitor.baseManifold(*window.problem(), block); },
-      monitor.heldDirections(), calibration.fixedBlocks(), alone,
+      monitor.heldDirections(), calibration.fixedBlocks(), own,
       !rig.target && options.carried_tags > 0, rows);
   // Remove the old prior and the state (with every residual on it).
   prior.removeFrom(window.problem());

@@ -222,8 +222,8 @@ void Estimator::Impl::initialize() {
   const std::string& clock = startup.clockMessage();
   status_text = clock.empty() ? "running" : "running; " + clock;
   while (!options.batch && static_cast<int>(window.size()) > options.window_size) {
-    // Without a board the prior is dense over every tag of the batch: only the last one, which
-    // the solves use, is factored (with a board each is, as before).
+    // Without a board each intermediate prior is kept as information only: only the last one,
+    // which the solves use, is factored (with a board each is, as before).
     marginalizeOldest(rig.target || static_cast<int>(window.size()) == options.window_size + 1);
   }
   if (aux_after_batch) aux.extend();  // after the batch (above)

@@ -82,8 +82,9 @@ double* Landmarks::landmarkFor(ceres::Problem* problem, const Camera& camera, co
 }
 
 double* Landmarks::add(ceres::Problem* problem, int id, std::unique_ptr<TagLandmark> landmark) {
-  landmark->carried = carried_limit_ <= 0 || carried_count_ < carried_limit_;
+  landmark->carried = roomToCarry();
   if (landmark->carried) {
+    ++carried_count_;
     // Made a square (a window's own tag starting again is carried once there is room: its
     // corners were free).
     const double zero[7] = {0, 0, 0, 0, 0, 0, 0};
@@ -95,15 +96,13 @@ double* Landmarks::add(ceres::Problem* problem, int id, std::unique_ptr<TagLandm
   } else {
     problem->AddParameterBlock(landmark->x, kTagLandmarkSize);
   }
-  if (landmark->carried) ++carried_count_;
   double* block = landmark->x;
   ids_[block] = id;
   landmarks_[id] = std::move(landmark);
   return block;
 }
 
-std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>& states,
-                                        bool own) const {
+std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>& states) const {
   if (landmarks_.empty()) return {};
   const State& oldest = *states.front();
   std::set<const double*> kept;
@@ -119,7 +118,7 @@ std::vector<double*> Landmarks::leaving(const std::deque<std::unique_ptr<State>>
   std::set<const double*> seen;
   for (const auto& r : oldest.residuals) {
     for (double* b : r.blocks) {
-      if (ids_.count(b) && (!kept.count(b) || (own && !carried(b))) && seen.insert(b).second) {
+      if (ids_.count(b) && (!kept.count(b) || !carried(b)) && seen.insert(b).second) {
         out.push_back(b);
       }
     }
@@ -134,8 +133,7 @@ bool Landmarks::carried(const double* block) const {
 
 bool Landmarks::wouldCarry(int id) const {
   const auto found = landmarks_.find(id);
-  if (found != landmarks_.end()) return found->second->carried;
-  return carried_limit_ <= 0 || carried_count_ < carried_limit_;
+  return found != landmarks_.end() ? found->second->carried : roomToCarry();
 }
 
 void Landmarks::remove(double* block) {

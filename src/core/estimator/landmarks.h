@@ -48,10 +48,9 @@ class Landmarks {
   // left, as a starting point only). Null if that fails.
   double* landmarkFor(ceres::Problem* problem, const Camera& camera, const TagFrame& frame,
                       const TagObservation& tag, const std::function<SE3()>& T_G_C);
-  // Landmarks that leave with the oldest window state: those only its records observe, and, with
-  // `own`, the window's own (not carried) that it observes (not while the first batch is cut to
-  // the window: that would tie all of its states together in the prior).
-  std::vector<double*> leaving(const std::deque<std::unique_ptr<State>>& states, bool own) const;
+  // Landmarks that leave with the oldest window state: those only its records observe, and the
+  // window's own (not carried) that it observes.
+  std::vector<double*> leaving(const std::deque<std::unique_ptr<State>>& states) const;
   // Whether the landmark is carried across marginalizations.
   bool carried(const double* block) const;
   // Whether the tag's landmark is carried, or would be if it were made now.
@@ -70,6 +69,8 @@ class Landmarks {
     double x[kTagLandmarkSize];  // [p_G,0 .. p_G,3] (TagReprojectionFactor::useLandmarkBlock)
     bool carried = true;
   };
+  // Whether a new landmark would be carried now.
+  bool roomToCarry() const { return carried_limit_ <= 0 || carried_count_ < carried_limit_; }
   // Adds the landmark's block to the problem, carried if there is room.
   double* add(ceres::Problem* problem, int id, std::unique_ptr<TagLandmark> landmark);
   // The mean side of the landmarks' tags [m] (the guess for a new tag's size).

@@ -1,6 +1,5 @@
 #include "window_prior.h"
 
-#include <algorithm>
 #include <set>
 
 namespace mvis {
@@ -49,12 +48,6 @@ void WindowPrior::install(ceres::Problem* problem, std::unique_ptr<Marginalizati
     rows_.push_back(std::move(r));
   }
   whole_ = std::move(prior);
-}
-
-bool WindowPrior::holds(const double* block) const {
-  if (!whole_) return false;
-  const auto& blocks = whole_->parameterBlocks();
-  return std::find(blocks.begin(), blocks.end(), block) != blocks.end();
 }
 
 void WindowPrior::clear() {

@@ -47,8 +47,6 @@ class WindowPrior {
   // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense
   // prior is its largest cost with many auxiliary sensors).
   void install(ceres::Problem* problem, std::unique_ptr<MarginalizationFactor> prior);
-  // Whether the prior is on the block.
-  bool holds(const double* block) const;
   // Forgets the prior without touching a problem (when the problem itself is replaced).
   void clear();
 
