@@ -127,33 +127,45 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       weight = std::sqrt(std::max(rho[1], 0.0));
     }
     r *= weight;
-    // Tangent Jacobians of this residual per variable block.
-    std::vector<Eigen::MatrixXd> Jt;
+    // The residual's tangent Jacobian over its variable blocks, side by side: one product for
+    // its J^T J and J^T r, added block by block.
     std::vector<const Entry*> at;
+    std::vector<std::size_t> of;
+    int cols = 0;
     for (std::size_t b = 0; b < residual.blocks.size(); ++b) {
       if (jac_ptrs[b] == nullptr) continue;
-      const Entry& e = entries[index.at(residual.blocks[b])];
-      at.push_back(&e);
-      Jt.emplace_back();
+      at.push_back(&entries[index.at(residual.blocks[b])]);
+      of.push_back(b);
+      cols += at.back()->tangent;
+    }
+    Eigen::MatrixXd Jt(rows, cols);
+    int col = 0;
+    for (std::size_t a = 0; a < at.size(); ++a) {
+      const Entry& e = *at[a];
       if (e.manifold != nullptr) {
         Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(e.ambient,
                                                                                     e.tangent);
         e.manifold->PlusJacobian(e.address, plus.data());
-        Jt.back() = weight * (J[b] * plus);
+        Jt.middleCols(col, e.tangent).noalias() = weight * (J[of[a]] * plus);
       } else {
-        Jt.back() = weight * J[b];
+        Jt.middleCols(col, e.tangent) = weight * J[of[a]];
       }
+      col += e.tangent;
     }
-    for (std::size_t a = 0; a < Jt.size(); ++a) {
-      ga.segment(at[a]->offset, at[a]->tangent).noalias() += Jt[a].transpose() * r;
-      for (std::size_t b = a; b < Jt.size(); ++b) {
-        const Eigen::MatrixXd block = Jt[a].transpose() * Jt[b];
-        Ha.block(at[a]->offset, at[b]->offset, at[a]->tangent, at[b]->tangent) += block;
-        if (b != a) {
-          Ha.block(at[b]->offset, at[a]->offset, at[b]->tangent, at[a]->tangent) +=
-              block.transpose();
-        }
+    const Eigen::MatrixXd JtJ = Jt.transpose() * Jt;
+    const Eigen::VectorXd Jtr = Jt.transpose() * r;
+    int ca = 0;
+    for (std::size_t a = 0; a < at.size(); ++a) {
+      const int ta = at[a]->tangent;
+      ga.segment(at[a]->offset, ta) += Jtr.segment(ca, ta);
+      int cb = ca;
+      for (std::size_t b = a; b < at.size(); ++b) {
+        const int tb = at[b]->tangent;
+        Ha.block(at[a]->offset, at[b]->offset, ta, tb) += JtJ.block(ca, cb, ta, tb);
+        if (b != a) Ha.block(at[b]->offset, at[a]->offset, tb, ta) += JtJ.block(cb, ca, tb, ta);
+        cb += tb;
       }
+      ca += ta;
     }
   }
   for (const MarginalizationFactor* prior : priors_) {
@@ -287,11 +299,28 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
     out.g = std::move(g);
     return out;
   }
-  const Eigen::MatrixXd Hmm_inv = pseudoInverse(H.topLeftCorner(m, m), eps);
-  const Eigen::MatrixXd Hkm = H.bottomLeftCorner(k, m);
-  const Eigen::MatrixXd HkmHmm_inv = Hkm * Hmm_inv;
-  out.H = H.bottomRightCorner(k, k) - HkmHmm_inv * Hkm.transpose();
-  out.g = g.tail(k) - HkmHmm_inv * g.head(m);
+  ScaledCholesky c;
+  if (scaledCholesky(H.topLeftCorner(m, m), &c)) {
+    // Hmm = D^1/2 L L^T D^1/2: with W = L^-1 D^-1/2 Hmk and w = L^-1 D^-1/2 gm, the Schur
+    // complement is Hkk - W^T W (a symmetric rank update: half the products of Hkm Hmm^-1 Hmk
+    // through the inverse, which matters when the prior is dense over many sensors' blocks)
+    // and gk - W^T w.
+    const Eigen::VectorXd inv_d = c.sqrt_d.cwiseInverse();
+    Eigen::MatrixXd W = inv_d.asDiagonal() * H.topRightCorner(m, k);
+    Eigen::VectorXd w = inv_d.asDiagonal() * g.head(m);
+    c.L.triangularView<Eigen::Lower>().solveInPlace(W);
+    c.L.triangularView<Eigen::Lower>().solveInPlace(w);
+    out.H = H.bottomRightCorner(k, k);
+    out.H.selfadjointView<Eigen::Lower>().rankUpdate(W.transpose(), -1.0);
+    out.H.triangularView<Eigen::StrictlyUpper>() = out.H.transpose().eval();
+    out.g = g.tail(k) - W.transpose() * w;
+  } else {
+    const Eigen::MatrixXd Hmm_inv = pseudoInverse(H.topLeftCorner(m, m), eps);
+    const Eigen::MatrixXd Hkm = H.bottomLeftCorner(k, m);
+    const Eigen::MatrixXd HkmHmm_inv = Hkm * Hmm_inv;
+    out.H = H.bottomRightCorner(k, k) - HkmHmm_inv * Hkm.transpose();
+    out.g = g.tail(k) - HkmHmm_inv * g.head(m);
+  }
   for (std::size_t i = out.dropped; i < entries.size(); ++i) entries[i].offset -= m;
   return out;
 }
