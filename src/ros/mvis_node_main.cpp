@@ -2,8 +2,20 @@
 // Node and nodelet share one code path.
 #include <nodelet/loader.h>
 #include <ros/ros.h>
+#include <unistd.h>
+
+#include <cstdlib>
 
 int main(int argc, char** argv) {
+  // CHOLMOD (under Ceres's solves) runs OpenMP regions; by default libgomp's idle threads then
+  // spin for a while, and on a second core they delayed the IMU callback: odometry latency p99
+  // 2.1-2.2 ms on two cores against 0.12 ms with passive waiting (scripts/bench part 7). libgomp
+  // reads the policy from the environment only, when it is loaded (before main), so the node
+  // starts itself again with it set, unless the user chose one. A nodelet manager needs it in
+  // its own environment (README).
+  if (std::getenv("OMP_WAIT_POLICY") == nullptr && setenv("OMP_WAIT_POLICY", "passive", 1) == 0) {
+    execv("/proc/self/exe", argv);  // returns only on failure: then run as we are
+  }
   ros::init(argc, argv, "mvis");
   nodelet::Loader loader;
   const nodelet::M_string remappings(ros::names::getRemappings());
