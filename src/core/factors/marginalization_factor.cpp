@@ -216,11 +216,15 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       M[i] = minus * plus;
     }
     const Eigen::VectorXd grad = gs + Hs * dx;
-    // M is the identity for the manifolds here (then a block of H* is added as it is).
+    // M is the identity for the manifolds here (MinusJacobian and PlusJacobian at one point), up
+    // to round-off (within 2e-15 on the tag landmarks' and poses' manifolds: about half the
+    // carried tags' products were not exactly it): then a block of H* is added as it is.
     std::vector<bool> identity(blocks.size());
     for (std::size_t i = 0; i < blocks.size(); ++i) {
-      identity[i] = at[i] != nullptr && M[i].rows() == M[i].cols() &&
-                    M[i] == Eigen::MatrixXd::Identity(M[i].rows(), M[i].cols());
+      identity[i] =
+          at[i] != nullptr && M[i].rows() == M[i].cols() &&
+          (M[i] - Eigen::MatrixXd::Identity(M[i].rows(), M[i].cols())).cwiseAbs().maxCoeff() <=
+              1e-12;
     }
     for (std::size_t i = 0; i < blocks.size(); ++i) {
       if (at[i] == nullptr) continue;
