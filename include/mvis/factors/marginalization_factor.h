@@ -7,9 +7,13 @@
 //   H* = H_kk - H_km H_mm^-1 H_mk,   b* = b_k - H_km H_mm^-1 b_m
 // is the information the dropped blocks leave on the kept ones. The blocks' information spans
 // many orders of magnitude (biases ~1e10, gravity ~1), so H_mm^-1 and the factorization of H*
-// work on the Jacobi-scaled matrix S = D^-1/2 A D^-1/2 (D = diag(A)). The prior is the cost
-// ||r0 + J0 dx_k||^2, dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean
-// difference otherwise), with
+// work on the Jacobi-scaled matrix S = D^-1/2 A D^-1/2 (D = diag(A)). H_mm^-1 is applied through
+// the Cholesky factor of its scaled matrix, D_m^-1/2 H_mm D_m^-1/2 = L_m L_m^T, when that is
+// clearly positive definite: W = L_m^-1 D_m^-1/2 H_mk, w = L_m^-1 D_m^-1/2 b_m, H* = H_kk - W^T W
+// (a symmetric rank update), b* = b_k - W^T w; otherwise through its pseudo-inverse (scaled
+// eigenvalues above eps, as for J0 below). The prior is the cost ||r0 + J0 dx_k||^2,
+// dx_k = Minus(x_k, x0_k) per kept block (the manifold's Minus, Euclidean difference otherwise),
+// with
 //   S = L L^T (Cholesky, when every pivot exceeds 1e-10: clearly positive definite):
 //     J0 = L^T D^1/2,   r0 = L^-1 D^-1/2 b*;
 //   S = V diag(l) V^T otherwise (eigen-decomposition; scaled eigenvalues l <= eps count as zero):
