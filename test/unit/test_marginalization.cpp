@@ -1,7 +1,8 @@
 // Marginalization prior: exact on a linear problem (the reduced problem has the full problem's
 // solution), equal to a dense Schur complement on a small nonlinear problem with manifolds (also
-// with blocks eliminated alone, and semi-definite), and a correct linear model when evaluated
-// away from its linearization point; its Cholesky form splits into row groups with the same cost.
+// with blocks eliminated alone, and semi-definite, and through the pseudo-inverse when the
+// dropped blocks' information is singular), and a correct linear model when evaluated away from
+// its linearization point; its Cholesky form splits into row groups with the same cost.
 #include <ceres/ceres.h>
 #include <ceres/normal_prior.h>
 #include <ceres/sphere_manifold.h>
@@ -112,6 +113,50 @@ TEST(Marginalization, LinearProblemKeepsTheFullSolution) {
   solve(&reduced);
   EXPECT_LT((Eigen::Vector3d(y2) - x2_full).norm(), 1e-9);
   EXPECT_LT((Eigen::Vector2d(y3) - x3_full).norm(), 1e-9);
+}
+
+// A dropped block that its residuals see in two of its three directions: H_mm is singular, the
+// Cholesky route refuses it and the pseudo-inverse takes it; the prior is then the dense Schur
+// complement through H_mm's pseudo-inverse (the unseen direction tells the kept blocks nothing).
+TEST(Marginalization, SingularDroppedBlocksGoThroughThePseudoInverse) {
+  std::mt19937 rng(11);
+  Eigen::MatrixXd A_x = randomMatrix(5, 3, &rng);
+  A_x.col(2).setZero();  // x's third coordinate is in no residual
+  const LinearCost a({A_x, randomMatrix(5, 4, &rng)}, randomMatrix(5, 1, &rng));
+  const LinearCost b({randomMatrix(3, 2, &rng), randomMatrix(3, 4, &rng)},
+                     randomMatrix(3, 1, &rng));
+  const LinearCost c({Eigen::MatrixXd::Identity(4, 4)}, randomMatrix(4, 1, &rng));
+  double x[3] = {0.2, -0.4, 0.7}, u[2] = {1.0, 0.5}, y[4] = {0.1, -0.3, 0.2, 0.4};
+  Marginalizer marginalizer;
+  marginalizer.addResidual(&a, nullptr, {x, y});
+  marginalizer.addResidual(&b, nullptr, {u, y});
+  marginalizer.addResidual(&c, nullptr, {y});
+  auto made = marginalizer.marginalize({x, u});
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  ASSERT_EQ(made.value()->parameterBlocks(), std::vector<double*>{y});
+
+  // Dense reference over [x 3, u 2 | y 4].
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(12, 9);
+  J.block(0, 0, 5, 3) = a.jacobian(0);
+  J.block(0, 5, 5, 4) = a.jacobian(1);
+  J.block(5, 3, 3, 2) = b.jacobian(0);
+  J.block(5, 5, 3, 4) = b.jacobian(1);
+  J.block(8, 5, 4, 4) = c.jacobian(0);
+  Eigen::VectorXd r(12);
+  r << a.residual({x, y}), b.residual({u, y}), c.residual({y});
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd g = J.transpose() * r;
+  const Eigen::MatrixXd Hmm_pinv =
+      H.topLeftCorner(5, 5).completeOrthogonalDecomposition().pseudoInverse();
+  ASSERT_LT(std::abs(H.topLeftCorner(5, 5).determinant()), 1e-12);
+  const Eigen::MatrixXd Hs =
+      H.bottomRightCorner(4, 4) - H.bottomLeftCorner(4, 5) * Hmm_pinv * H.topRightCorner(5, 4);
+  const Eigen::VectorXd gs = g.tail(4) - H.bottomLeftCorner(4, 5) * Hmm_pinv * g.head(5);
+  const MarginalizationFactor& prior = *made.value();
+  EXPECT_LT((prior.J0().transpose() * prior.J0() - Hs).cwiseAbs().maxCoeff(),
+            1e-9 * Hs.cwiseAbs().maxCoeff());
+  EXPECT_LT((prior.J0().transpose() * prior.r0() - gs).cwiseAbs().maxCoeff(),
+            1e-9 * gs.cwiseAbs().maxCoeff());
 }
 
 // A small visual-inertial-like problem: two states, gravity, an IMU factor and priors.
