@@ -12,6 +12,16 @@
 // whitened by L with L^T L = P^-1, P the preintegrated covariance. The bias rows carry the
 // random walks of the two biases over T, so this factor is also the bias random-walk factor of
 // the base IMU.
+// With the intrinsics estimated P is the raw readings' (their noise densities), while the deltas
+// use corrected readings w = G (w_m - ...), a = M (a_m - ...) (imu_reintegration.h), whose noise
+// is G n_g, M n_a: the residual is whitened as L S^-1 r with S = diag(G, M, M, I, I) at the
+// current intrinsics (to first order in the interval's rotation), and d(S^-1)/dx r joins the
+// intrinsics' Jacobian. With a whitening fixed at construction instead, the cost compares
+// D times noisy readings with the states' motion at a fixed weight, and least squares shrinks D
+// by the noise's share of the readings' variation (errors in variables): on the test trajectory
+// with the states held at the truth and four times the VI-Rig's noise, the accelerometer's scales
+// across gravity ended 6.9e-4 and 4.9e-4 small (5.5 and 3.0 standard errors over 16 seeds), with
+// this whitening within 1.3 (test ImuFactor.IntrinsicsUnbiasedUnderNoiseAtTheTrueStates).
 //
 // The deltas at x come from an ImuDeltas (integrated at x0, Jacobian J = d delta / dx):
 //   dR(x) = dR Exp(phi), phi = J_theta (x - x0);  dp(x) = dp + J_p (x - x0);  dv likewise.
@@ -29,7 +39,7 @@
 //   d r_p / d x = -J_p,  d r_p / d g = -1/2 R_i^T T^2
 //   d r_v / d theta_i = [R_i^T (v_j - v_i - g T)]x
 //   d r_v / d v_i = -R_i^T,  d r_v / d v_j = R_i^T,  d r_v / d x = -J_v,  d r_v / d g = -R_i^T T
-// (x's bias part belongs to speed_bias_i, the rest to the intrinsics block).
+// (x's bias part belongs to speed_bias_i, the rest to the intrinsics block), each times L S^-1.
 #pragma once
 
 #include <ceres/cost_function.h>

@@ -107,4 +107,14 @@ const ImuDeltas& factorDeltas(const ImuPreintegration& pre, bool intrinsics,
                               const ImuDeltas::Vector30d& x, const ImuIntrinsicsFrame& frame,
                               bool jacobians, ImuDeltas* local);
 
+// The inverses of the maps that carry a reading's noise into its corrected value (w = G (w_m -
+// ...), a = M (a_m - ...): G^-1, M^-1; a gyroscope's M^-1 = I) at `intrinsics`, applied to the
+// rotation, position and velocity parts of `r` (rows 0-2 by G^-1, 3-5 and 6-8 by M^-1), and the
+// result's derivative in the intrinsics at fixed r (if `jacobian`), and G^-1, M^-1 themselves
+// (imu_factor.h: the whitening by the current intrinsics).
+void noiseMapInverses(const double* intrinsics, const ImuIntrinsicsFrame& frame,
+                      const Eigen::Matrix<double, 9, 1>& r, Eigen::Matrix<double, 9, 1>* out,
+                      Eigen::Matrix<double, 9, kImuIntrinsicsSize>* jacobian,
+                      Eigen::Matrix3d* G_inv, Eigen::Matrix3d* M_inv);
+
 }  // namespace mvis

@@ -75,7 +75,21 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
   r.segment<3>(O_BG) = bg_j - bg_i;
   r.segment<3>(O_BA) = ba_j - ba_i;
 
+  // With the intrinsics estimated the whitening is the raw readings' covariance seen through
+  // the current corrections (imu_factor.h): W = L S^-1, S^-1 = diag(G^-1, M^-1, M^-1, I, I).
   const Eigen::Matrix<double, 15, 15>& sqrt_info = sqrt_information_;
+  Eigen::Matrix<double, 15, 15> W = sqrt_info;
+  Eigen::Matrix<double, 9, kImuIntrinsicsSize> K;  // d(S^-1 r)/d intrinsics at fixed r
+  if (intrinsics_) {
+    Eigen::Matrix<double, 9, 1> scaled;
+    Matrix3 G_inv, M_inv;
+    noiseMapInverses(parameters[5], frame_, r.head<9>(), &scaled,
+                     jacobians != nullptr ? &K : nullptr, &G_inv, &M_inv);
+    r.head<9>() = scaled;
+    W.middleCols<3>(O_R) = sqrt_info.middleCols<3>(O_R) * G_inv;
+    W.middleCols<3>(O_P) = sqrt_info.middleCols<3>(O_P) * M_inv;
+    W.middleCols<3>(O_V) = sqrt_info.middleCols<3>(O_V) * M_inv;
+  }
   Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = sqrt_info * r;
   if (jacobians == nullptr) return true;
 
@@ -93,7 +107,7 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
     D.block<3, 3>(O_P, 3) = -Rt_i;
     D.block<3, 3>(O_V, 0) = lie::hat(a_v);
     out.setZero();
-    out.leftCols<6>() = sqrt_info * D;
+    out.leftCols<6>() = W * D;
   }
   if (jacobians[1] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 9, Eigen::RowMajor>> out(jacobians[1]);
@@ -103,7 +117,7 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
     D.block<3, 3>(O_V, 0) = -Rt_i;
     D.block<3, 3>(O_BG, 3) = -Matrix3::Identity();
     D.block<3, 3>(O_BA, 6) = -Matrix3::Identity();
-    out = sqrt_info * D;
+    out = W * D;
   }
   if (jacobians[2] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 7, Eigen::RowMajor>> out(jacobians[2]);
@@ -111,7 +125,7 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
     D.block<3, 3>(O_R, 0) = Jr_inv_e;
     D.block<3, 3>(O_P, 3) = Rt_i;
     out.setZero();
-    out.leftCols<6>() = sqrt_info * D;
+    out.leftCols<6>() = W * D;
   }
   if (jacobians[3] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 9, Eigen::RowMajor>> out(jacobians[3]);
@@ -119,21 +133,21 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
     D.block<3, 3>(O_V, 0) = Rt_i;
     D.block<3, 3>(O_BG, 3) = Matrix3::Identity();
     D.block<3, 3>(O_BA, 6) = Matrix3::Identity();
-    out = sqrt_info * D;
+    out = W * D;
   }
   if (jacobians[4] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, 3, Eigen::RowMajor>> out(jacobians[4]);
     Eigen::Matrix<double, 15, 3> D = Eigen::Matrix<double, 15, 3>::Zero();
     D.block<3, 3>(O_P, 0) = -0.5 * Rt_i * T * T;
     D.block<3, 3>(O_V, 0) = -Rt_i * T;
-    out = sqrt_info * D;
+    out = W * D;
   }
   if (intrinsics_ && jacobians[5] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 15, kImuIntrinsicsSize, Eigen::RowMajor>> out(jacobians[5]);
     Eigen::Matrix<double, 15, kImuIntrinsicsSize> D =
         Eigen::Matrix<double, 15, kImuIntrinsicsSize>::Zero();
     D.topRows<9>() = Dx.rightCols<kImuIntrinsicsSize>();
-    out = sqrt_info * D;
+    out = W * D + sqrt_info.leftCols<9>() * K;
   }
   return true;
 }

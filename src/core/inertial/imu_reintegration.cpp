@@ -1,5 +1,9 @@
 #include "mvis/inertial/imu_reintegration.h"
 
+#include <ceres/jet.h>
+
+#include <array>
+
 #include "../common/tangent_jet.h"
 #include "mvis/common/lie.h"
 
@@ -20,13 +24,10 @@ Mat3<T> upperT(const T* d) {
   return M;
 }
 
-// The midpoint scheme of ImuPreintegration::integrate on readings corrected at x.
+// The corrections' matrices at the intrinsics `in`: w = G (w_m - b_g - Tg a), a = M (a_m - b_a)
+// (M zero for a gyroscope).
 template <typename T>
-void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T, 30, 1>& x,
-               const ImuIntrinsicsFrame& frame, Mat3<T>* dR, Vec3<T>* dp, Vec3<T>* dv) {
-  const Vec3<T> bg = x.template head<3>();
-  const Vec3<T> ba = x.template segment<3>(3);
-  const T* in = x.data() + 6;
+void correctionMaps(const T* in, const ImuIntrinsicsFrame& frame, Mat3<T>* G, Mat3<T>* M) {
   // kalibr: lower triangular, stored as the transpose's upper entries.
   const auto tri = [&](const T* d) {
     const Mat3<T> U = upperT<T>(d);
@@ -34,10 +35,20 @@ void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T
   };
   const Vec3<T> theta(in[L::kAccRotation], in[L::kAccRotation + 1], in[L::kAccRotation + 2]);
   const Mat3<T> R = frame.R0.cast<T>() * expT<T>(theta);
-  // w = G (w_m - b_g - Tg a), a = M (a_m - b_a)
-  const Mat3<T> G = frame.kalibr ? Mat3<T>(R * tri(in + L::kDw)) : tri(in + L::kDw);
-  Mat3<T> M = Mat3<T>::Zero(), Tg = Mat3<T>::Zero();
-  if (!frame.gyro_only) M = frame.kalibr ? tri(in + L::kDa) : Mat3<T>(R * tri(in + L::kDa));
+  *G = frame.kalibr ? Mat3<T>(R * tri(in + L::kDw)) : tri(in + L::kDw);
+  M->setZero();
+  if (!frame.gyro_only) *M = frame.kalibr ? tri(in + L::kDa) : Mat3<T>(R * tri(in + L::kDa));
+}
+
+// The midpoint scheme of ImuPreintegration::integrate on readings corrected at x.
+template <typename T>
+void integrate(const std::vector<ImuMeasurement>& samples, const Eigen::Matrix<T, 30, 1>& x,
+               const ImuIntrinsicsFrame& frame, Mat3<T>* dR, Vec3<T>* dp, Vec3<T>* dv) {
+  const Vec3<T> bg = x.template head<3>();
+  const Vec3<T> ba = x.template segment<3>(3);
+  const T* in = x.data() + 6;
+  Mat3<T> G, M, Tg = Mat3<T>::Zero();
+  correctionMaps<T>(in, frame, &G, &M);
   for (int k = 0; k < 9; ++k) Tg(k / 3, k % 3) = in[L::kTg + k];
   const auto correct = [&](const ImuMeasurement& m, Vec3<T>* w, Vec3<T>* a) {
     if (frame.gyro_only) {  // m.accel: the specific force at the gyroscope, given (or zero)
@@ -305,6 +316,35 @@ ImuDeltas deltasOf(const ImuPreintegration& pre) {
     out.J.row(6 + row).head<6>() = J.row(P::kVelocity + row).segment<6>(P::kBiasGyro);
   }
   return out;
+}
+
+void noiseMapInverses(const double* intrinsics, const ImuIntrinsicsFrame& frame,
+                      const Eigen::Matrix<double, 9, 1>& r, Eigen::Matrix<double, 9, 1>* out,
+                      Eigen::Matrix<double, 9, kImuIntrinsicsSize>* jacobian,
+                      Eigen::Matrix3d* G_inv, Eigen::Matrix3d* M_inv) {
+  using Jet = ceres::Jet<double, kImuIntrinsicsSize>;
+  std::array<Jet, kImuIntrinsicsSize> in;
+  for (int k = 0; k < kImuIntrinsicsSize; ++k) in[k] = Jet(intrinsics[k], k);
+  Mat3<Jet> G, M;
+  correctionMaps<Jet>(in.data(), frame, &G, &M);
+  const Mat3<Jet> Gi = G.inverse();
+  const Mat3<Jet> Mi = frame.gyro_only ? Mat3<Jet>(Mat3<Jet>::Identity()) : Mat3<Jet>(M.inverse());
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      (*G_inv)(i, j) = Gi(i, j).a;
+      (*M_inv)(i, j) = Mi(i, j).a;
+    }
+  }
+  Vec3<Jet> part[3];
+  part[0] = Gi * r.head<3>().cast<Jet>();
+  part[1] = Mi * r.segment<3>(3).cast<Jet>();
+  part[2] = Mi * r.tail<3>().cast<Jet>();
+  for (int b = 0; b < 3; ++b) {
+    for (int i = 0; i < 3; ++i) {
+      (*out)[3 * b + i] = part[b][i].a;
+      if (jacobian != nullptr) jacobian->row(3 * b + i) = part[b][i].v.transpose();
+    }
+  }
 }
 
 }  // namespace mvis
