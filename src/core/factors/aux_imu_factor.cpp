@@ -124,6 +124,16 @@ bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
   r.segment<3>(P::kBiasGyro) = Vector3(parameters[5] + bias_at) - Vector3(parameters[4] + bias_at);
   r.segment<3>(P::kBiasAccel) =
       Vector3(parameters[5] + bias_at + 3) - Vector3(parameters[4] + bias_at + 3);
+  // With the intrinsics estimated, the readings' noise seen through the current corrections
+  // (imu_factor.h): r <- S^-1 r before the whitening, d(S^-1)/dx r into the intrinsics' columns.
+  Matrix3 G_inv = Matrix3::Identity(), M_inv = Matrix3::Identity();
+  Eigen::Matrix<double, 9, kImuIntrinsicsSize> K;
+  if (intrinsics_) {
+    Eigen::Matrix<double, 9, 1> scaled;
+    noiseMapInverses(parameters[9], frame_, r.head<9>(), &scaled, jacobian ? &K : nullptr, &G_inv,
+                     &M_inv);
+    r.head<9>() = scaled;
+  }
   if (!jacobian) {
     whiten<15>(sqrt_information_, parameter_block_sizes(), residuals, nullptr);
     return true;
@@ -167,6 +177,12 @@ bool AuxImuFactor::Evaluate(double const* const* parameters, double* residuals,
     D.block<3, 3>(row, kAuxColumn + a + bias_at + 3 * k) += I;
   }
 
+  if (intrinsics_) {
+    D.middleRows<3>(P::kRotation) = G_inv * D.middleRows<3>(P::kRotation);
+    D.middleRows<3>(P::kPosition) = M_inv * D.middleRows<3>(P::kPosition);
+    D.middleRows<3>(P::kVelocity) = M_inv * D.middleRows<3>(P::kVelocity);
+    D.block<9, kImuIntrinsicsSize>(0, kIntrinsicsColumn) += K;
+  }
   aux_end::BlockColumns blocks[10];
   const int count = blockColumns(model_, blocks) + (intrinsics_ ? 1 : 0);
   aux_end::writeBlocks(D, blocks, count, jacobians);

@@ -95,6 +95,17 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
   Eigen::Map<Eigen::Matrix<double, 6, 1>> r(residuals);
   r.head<3>() = e;
   r.tail<3>() = Vector3(parameters[5]) - Vector3(parameters[4]);
+  // With the intrinsics estimated, the readings' noise seen through the current correction
+  // (imu_factor.h): the rotation rows times G^-1 before the whitening, d(G^-1)/dDw r into Dw's.
+  Matrix3 G_inv = Matrix3::Identity();
+  Eigen::Matrix<double, 9, kImuIntrinsicsSize> K;
+  if (intrinsics_) {
+    Eigen::Matrix<double, 9, 1> rows = Eigen::Matrix<double, 9, 1>::Zero(), scaled;
+    rows.head<3>() = r.head<3>();
+    Matrix3 M_inv;
+    noiseMapInverses(parameters[8], frame_, rows, &scaled, jacobian ? &K : nullptr, &G_inv, &M_inv);
+    r.head<3>() = scaled.head<3>();
+  }
   if (!jacobian) {
     whiten<6>(sqrt_information_, parameter_block_sizes(), residuals, nullptr);
     return true;
@@ -116,13 +127,14 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
   D.block<3, 3>(0, kBiasColumn) += Dx.leftCols<3>();
   D.block<3, 3>(3, kBiasColumn) = -Matrix3::Identity();
   D.block<3, 3>(3, kBiasColumn + 3) = Matrix3::Identity();
+  D.topRows<3>() = G_inv * D.topRows<3>();
 
   aux_end::writeBlocks(D, kLayout, kBlocks, jacobians);
   if (intrinsics_ && jacobians[8] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 6, kImuIntrinsicsSize, Eigen::RowMajor>> out(jacobians[8]);
     out.setZero();
-    out.block<3, 6>(0, L::kDw) = Dx.middleCols<6>(6 + L::kDw);
-    out.block<3, 9>(0, L::kTg) = Dx.middleCols<9>(6 + L::kTg);
+    out.block<3, 6>(0, L::kDw) = G_inv * Dx.middleCols<6>(6 + L::kDw) + K.block<3, 6>(0, L::kDw);
+    out.block<3, 9>(0, L::kTg) = G_inv * Dx.middleCols<9>(6 + L::kTg);
   }
   whiten<6>(sqrt_information_, parameter_block_sizes(), residuals, jacobians);
   return true;
