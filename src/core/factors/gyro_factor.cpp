@@ -1,5 +1,8 @@
 #include "mvis/factors/gyro_factor.h"
 
+#include <algorithm>
+#include <array>
+
 #include "aux_end.h"
 #include "mvis/common/lie.h"
 #include "mvis/factors/state_blocks.h"
@@ -96,14 +99,22 @@ bool GyroFactor::Evaluate(double const* const* parameters, double* residuals,
   r.head<3>() = e;
   r.tail<3>() = Vector3(parameters[5]) - Vector3(parameters[4]);
   // With the intrinsics estimated, the readings' noise seen through the current correction
-  // (imu_factor.h): the rotation rows times G^-1 before the whitening, d(G^-1)/dDw r into Dw's.
+  // (imu_factor.h): the rotation rows times Dw^-1 before the whitening, d(Dw^-1)/dDw r into Dw's
+  // columns. Dw only: the kalibr model's rotation, which the gyroscope does not estimate, turns
+  // its isotropic noise without changing it.
   Matrix3 G_inv = Matrix3::Identity();
   Eigen::Matrix<double, 9, kImuIntrinsicsSize> K;
   if (intrinsics_) {
+    ImuIntrinsicsFrame scale_only = frame_;
+    scale_only.R0.setIdentity();
+    std::array<double, kImuIntrinsicsSize> block;
+    std::copy(parameters[8], parameters[8] + kImuIntrinsicsSize, block.begin());
+    std::fill(block.begin() + L::kAccRotation, block.end(), 0.0);
     Eigen::Matrix<double, 9, 1> rows = Eigen::Matrix<double, 9, 1>::Zero(), scaled;
     rows.head<3>() = r.head<3>();
     Matrix3 M_inv;
-    noiseMapInverses(parameters[8], frame_, rows, &scaled, jacobian ? &K : nullptr, &G_inv, &M_inv);
+    noiseMapInverses(block.data(), scale_only, rows, &scaled, jacobian ? &K : nullptr, &G_inv,
+                     &M_inv);
     r.head<3>() = scaled.head<3>();
   }
   if (!jacobian) {
