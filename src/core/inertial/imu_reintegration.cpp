@@ -101,9 +101,7 @@ class ReadingCorrection {
     // As integrate: kalibr's triangles are the transposes of the stored upper ones.
     Dw_ = frame.kalibr ? Eigen::Matrix3d(Uw_.transpose()) : Uw_;
     Da_ = frame.kalibr ? Eigen::Matrix3d(Ua_.transpose()) : Ua_;
-    G_ = frame.kalibr ? Eigen::Matrix3d(R_ * Dw_) : Dw_;
-    M_.setZero();
-    if (!frame.gyro_only) M_ = frame.kalibr ? Da_ : Eigen::Matrix3d(R_ * Da_);
+    correctionMaps<double>(in, frame, &G_, &M_);  // as integrate's
     for (int k = 0; k < 9; ++k) Tg_(k / 3, k % 3) = in[L::kTg + k];
   }
 
