@@ -213,6 +213,42 @@ TEST(EstimatorLandmarks, StartsAndCalibratesOnOneTagPerFrame) {
   }
 }
 
+// The first batch weighs its frames with a loss per frame, for the rough starting calibration's
+// residuals, which counts a clean frame of N corners like about 3 sqrt(N/2) of them. What it
+// leaves in the prior must be every clean corner's information, as every later frame's: without
+// a board each later pose stands on it. On clean data the first pose covariance after the batch
+// is then the one plain squares give (the loss per corner at 3 sigma hardly acts on 0.5 px
+// noise). Measured: every standard deviation within 0.9% of plain squares' (before the
+// batch's clean frames took the loss per corner: 10-24% larger).
+TEST(EstimatorLandmarks, FirstBatchLeavesEveryCleanCornersInformation) {
+  const SimRun run = simulate("sim_vi_rig", 6.0, 2);
+  std::vector<Eigen::Matrix<double, 6, 1>> first_std;
+  for (const double huber : {3.0, 0.0}) {
+    Rig guess = run.guess;
+    guess.target.reset();
+    EstimatorOptions options = deterministic();
+    options.pixel_sigma_px = 0.5;
+    options.huber_sigma = huber;
+    auto created = Estimator::create(guess, options);
+    ASSERT_TRUE(created.ok()) << created.status().message();
+    std::unique_ptr<Estimator> estimator = std::move(created).value();
+    Eigen::Matrix<double, 6, 1> std_dev = Eigen::Matrix<double, 6, 1>::Zero();
+    estimator->setUpdateCallback([&](const EstimatorUpdate& u) {
+      if (std_dev.isZero() && u.pose_covariance.allFinite()) {
+        std_dev = u.pose_covariance.diagonal().cwiseSqrt();
+      }
+    });
+    test::feed(run, estimator.get());
+    ASSERT_TRUE(estimator->initialized()) << estimator->status();
+    ASSERT_FALSE(std_dev.isZero());
+    first_std.push_back(std_dev);
+  }
+  const Eigen::Matrix<double, 6, 1> ratio = first_std[0].cwiseQuotient(first_std[1]);
+  std::printf("first pose std with the loss / plain squares: %.4f %.4f %.4f | %.4f %.4f %.4f\n",
+              ratio(0), ratio(1), ratio(2), ratio(3), ratio(4), ratio(5));
+  EXPECT_LT((ratio.array() - 1.0).abs().maxCoeff(), 0.05);
+}
+
 // Without a board the first state is the world frame: every pose's error and covariance are
 // relative to it. The pose NEES stays near its 3 degrees of freedom. Seed 1 is the run whose
 // position NEES was 11 when the auxiliary sensors took part in the first batch with their
@@ -244,8 +280,11 @@ TEST(EstimatorLandmarks, PoseCovarianceIsHonestWithoutTheBoard) {
               nees_rotation, nees_position);
   ASSERT_GE(poses.size(), 15u);
   // The bound per run, [1.5, 6] for 3 degrees of freedom, on the side that matters: an
-  // overconfident covariance. Measured 1.90 and 3.65 over 25 poses (every tag carried, 12 corners
-  // each: 1.56 and 3.03; with the auxiliary sensors in the first batch 7.35 and 12.93).
+  // overconfident covariance. Measured 1.36 and 4.08 over 25 poses (1.90 and 3.65 before the
+  // first batch's frames took the loss per corner; with the auxiliary sensors in the first batch
+  // 7.35 and 12.93). One run's poses share most of their error (what the first states left
+  // relative to the tags): over 24 runs of 60 s a consistent estimator's per-run NEES spreads
+  // over about 1.0-5.5 (10-90%, doc/results.md), so only the upper side is asserted.
   EXPECT_LT(nees_rotation, 6.0);
   EXPECT_LT(nees_position, 6.0);
 }

@@ -31,6 +31,9 @@ constexpr std::size_t kBaselineFrames = 300;
 constexpr std::size_t kBaselineMinFrames = 30;
 constexpr double kBaselineRatio = 3.0;
 constexpr double kBaselineFloor = 2.0;
+// settleFirstBatch(): a batch frame whose corners' whitened residuals have a mean square up to
+// this (RMS 2 sigma; about 2 for clean corners) takes the loss per corner.
+constexpr double kSettledMeanSquare = 4.0;
 
 // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null
 // when the covariance is not positive definite.
@@ -137,6 +140,40 @@ ceres::LossFunction* CameraFrames::tagLoss(int tags) {
     loss = std::make_unique<ceres::HuberLoss>(options_.huber_sigma / std::sqrt(double(tags)));
   }
   return loss.get();
+}
+
+void CameraFrames::dropBatchLosses() {
+  batch_losses_.clear();
+  batch_settled_ = false;
+}
+
+int CameraFrames::settleFirstBatch() {
+  if (batch_losses_.empty() || batch_settled_) return 0;
+  batch_settled_ = true;
+  std::map<const ceres::LossFunction*, ceres::LossFunctionWrapper*> wrappers;
+  for (const auto& w : batch_losses_) wrappers.emplace(w.get(), w.get());
+  int changed = 0;
+  std::vector<double> r;
+  for (std::size_t k = 0; k < window_.size(); ++k) {
+    for (const ResidualRecord& record : window_.state(k).residuals) {
+      const auto w = wrappers.find(record.loss);
+      if (w == wrappers.end()) continue;
+      // The record's factor is the problem's (held const there, not const itself).
+      auto* factor =
+          dynamic_cast<TagReprojectionFactor*>(const_cast<ceres::CostFunction*>(record.cost));
+      if (factor == nullptr || factor->corners().empty()) continue;
+      r.resize(static_cast<std::size_t>(factor->num_residuals()));
+      if (!factor->Evaluate(record.blocks.data(), r.data(), nullptr)) continue;
+      const double mean_square =
+          Eigen::Map<const Eigen::VectorXd>(r.data(), r.size()).squaredNorm() /
+          static_cast<double>(factor->corners().size());
+      if (!(mean_square <= kSettledMeanSquare)) continue;
+      factor->useCornerLoss(options_.huber_sigma);
+      w->second->Reset(nullptr, ceres::TAKE_OWNERSHIP);  // plain squares from here on
+      ++changed;
+    }
+  }
+  return changed;
 }
 
 SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
@@ -326,10 +363,22 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
     // The first batch (before `initialized`) always has the loss per frame: its residuals are
     // mostly the rough initial calibration's, which a per-corner loss would take for outliers
     // (it left the batch's states tens of millimetres off), and plain squares would let a
-    // wrong detection in it bias everything that follows. A batch starts from a solved
+    // wrong detection in it bias everything that follows (without a board its clean frames take
+    // the loss per corner once it is solved, settleFirstBatch()). A batch starts from a solved
     // calibration: its first frames count as every other.
     if (options_.robust_loss == RobustLoss::kFrame || (!initialized && !options_.batch)) {
-      loss = landmark != nullptr ? tagLoss(static_cast<int>(groups.size())) : huber_.get();
+      const int tags = static_cast<int>(groups.size());
+      if (landmark == nullptr) {
+        loss = huber_.get();
+      } else if (options_.robust_loss == RobustLoss::kFrame || !huber_) {
+        loss = tagLoss(tags);
+      } else {
+        // Its own, for settleFirstBatch().
+        batch_losses_.push_back(std::make_unique<ceres::LossFunctionWrapper>(
+            new ceres::HuberLoss(options_.huber_sigma / std::sqrt(double(tags))),
+            ceres::TAKE_OWNERSHIP));
+        loss = batch_losses_.back().get();
+      }
     } else if (options_.huber_sigma > 0.0) {
       factor->useCornerLoss(options_.huber_sigma);
     }

@@ -66,6 +66,20 @@ class CameraFrames {
   TimeNs lastEntered() const { return last_entered_; }
   // The latest rejection's message (then empty).
   std::string takeWarning() { return std::move(warning_); }
+  // After the first batch's solve without a board, with RobustLoss::kCorner: each of its tags'
+  // factors whose corners are clean at the solution (RMS whitened corner residual within 2
+  // sigma) takes the loss per corner that every later frame has, in place of its loss per
+  // frame. That one is needed while the rough starting calibration makes the residuals, but it
+  // counts a clean frame of N corners like about 3 sqrt(N/2) of them, and the prior the batch
+  // leaves keeps that: without a board every later pose stands on it (the world is the first
+  // state), and the pose covariance of a whole run was too large. A factor still off (a fault
+  // going on while the batch restarts) keeps its loss per frame. With a board the poses are seen
+  // against it again and the batch keeps its loss per frame (settled there, it left imu0's and
+  // imu1's Tg 1.7-2.7x further off in test CalibratesImuIntrinsicsByReintegration). Returns the
+  // number of factors changed (the batch is then solved again before it is marginalized).
+  int settleFirstBatch();
+  // Forgets the batch's losses: the problem their factors were in has been dropped.
+  void dropBatchLosses();
 
  private:
   struct Piece {
@@ -99,6 +113,11 @@ class CameraFrames {
   // of tags in the frame. The loss per corner lives in the factor (useCornerLoss).
   std::unique_ptr<ceres::LossFunction> huber_;
   std::map<int, std::unique_ptr<ceres::LossFunction>> tag_losses_;
+  // Without a board and with RobustLoss::kCorner the first batch's factors have a loss per frame
+  // each, in a wrapper that settleFirstBatch() may empty (plain squares, the loss per corner then
+  // in the factor); they stay as long as the problem (dropBatchLosses()).
+  std::vector<std::unique_ptr<ceres::LossFunctionWrapper>> batch_losses_;
+  bool batch_settled_ = false;
   double gate_sigma_ = 0.0;
   std::size_t carried_only_before_ = 0;
   std::vector<std::deque<double>> recent_;  // per camera, its entered frames' median residuals

@@ -83,6 +83,7 @@ Status Estimator::Impl::plausibleStamp(const std::string& sensor, TimeNs t) {
 
 void Estimator::Impl::newProblem() {
   window.reset();
+  frames.dropBatchLosses();
   prior.clear();
   landmarks.clear();
 }

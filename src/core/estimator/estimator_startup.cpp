@@ -211,13 +211,18 @@ void Estimator::Impl::initialize() {
   // solve; holding it in this first solve already would hold each camera at its own configured
   // value, and those disagree with what the board shows of their relative positions).
   monitor.check(problem);
-  if (recentreUnobservedShift(configured)) {
+  const auto solveAgain = [&] {
     const SolveSummary again = solve(batch_iterations, options.init_solve_time_s);
     summary.iterations += again.iterations;
     summary.solve_s += again.solve_s;
     summary.cost = again.cost;
     summary.usable = again.usable;
-  }
+  };
+  if (recentreUnobservedShift(configured)) solveAgain();
+  // Without a board the batch's clean frames then count as every later frame, per corner, and
+  // it is solved once more from where the loss per frame took it, before its states leave into
+  // the prior.
+  if (frames.settleFirstBatch() > 0) solveAgain();
   for (double* b : held_for_batch) problem->SetParameterBlockVariable(b);
   const std::string& clock = startup.clockMessage();
   status_text = clock.empty() ? "running" : "running; " + clock;
