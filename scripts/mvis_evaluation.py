@@ -334,6 +334,27 @@ def pose_nees(p_est, R_est, cov, p_true, R_true):
     return np.array(nees_R), np.array(nees_p)
 
 
+def nees_over_runs(per_run, dof=3, parts=5):
+    """What several runs' pose NEES (one array per run, its poses' NEES in time order, `dof`
+    degrees of freedom each) can show together. A run's poses share much of their error (without
+    a board: what the first states left relative to the tags stays in every later pose), so one
+    run's mean NEES is a few independent samples, not as many as it has poses, and scatters widely
+    even for an honest covariance. Returns the mean over the runs of their mean NEES, its standard
+    error from the runs' own scatter, that scatter's standard deviation, the number of
+    independent poses a run counts as if its mean NEES were chi-square distributed (dof n) / n
+    (variance 2 dof / n: n = 2 dof / std^2), and the NEES pooled over the runs in `parts` equal
+    parts of the run's poses (flat at dof for an honest covariance, whatever the correlation)."""
+    means = np.array([np.mean(a) for a in per_run])
+    std = float(np.std(means, ddof=1)) if len(means) > 1 else math.nan
+    n = min(len(a) for a in per_run)
+    bounds = np.linspace(0, n, parts + 1).astype(int)
+    pooled = [float(np.mean([np.mean(a[b0:b1]) for a in per_run]))
+              for b0, b1 in zip(bounds[:-1], bounds[1:]) if b1 > b0]
+    return {"mean": float(np.mean(means)), "standard_error": std / math.sqrt(len(means)),
+            "std": std, "independent_poses": 2.0 * dof / std ** 2 if std > 0 else math.inf,
+            "parts": pooled}
+
+
 def time_offset_floor(truth, gyro_noise_density, accel_noise_density, gravity=9.81):
     """A lower bound on a time offset's standard deviation [s] from the base IMU's white noise
     along a trajectory (imu0 in a z-up world, read_tum's tuple, evenly sampled), as if everything
@@ -416,6 +437,7 @@ def trajectory_metrics(result_dir, truth_dir):
         out["nees_orientation"] = float(np.mean(nees_R))
         out["nees_position"] = float(np.mean(nees_p))
         out["nees_samples"] = int(np.sum(mask))
+        out["nees_orientation_poses"], out["nees_position_poses"] = nees_R, nees_p
     return out
 
 

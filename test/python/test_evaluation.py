@@ -354,6 +354,27 @@ class MonteCarloSummary(unittest.TestCase):
         self.assertIn("5 of 6 (83.3%)", text)
         self.assertIn("| 2 | 3.00 | 1.50 | 2.00 | 1.00 | 3.00 | 2.50 |", text)
 
+    def test_nees_over_runs(self):
+        # Runs of 10 poses with mean NEES 2, 3, 4: mean 3, std 1, standard error 1/sqrt(3); a
+        # chi-square (3 n) / n with variance 1 has n = 6. The fifths pool the runs' poses 0-1, ...
+        runs = [np.full(10, 2.0), np.full(10, 3.0), np.concatenate([np.full(8, 4.0), [2.0, 6.0]])]
+        s = ev.nees_over_runs(runs)
+        self.assertAlmostEqual(s["mean"], 3.0, places=12)
+        self.assertAlmostEqual(s["std"], 1.0, places=12)
+        self.assertAlmostEqual(s["standard_error"], 1.0 / math.sqrt(3.0), places=12)
+        self.assertAlmostEqual(s["independent_poses"], 6.0, places=12)
+        np.testing.assert_allclose(s["parts"], [3.0, 3.0, 3.0, 3.0, 3.0], atol=1e-12)
+        self.assertAlmostEqual(ev.nees_over_runs(runs, dof=6)["independent_poses"], 12.0,
+                               places=12)
+        mc = load_script("monte_carlo")
+        metrics = [{"ate_position_m": 0.0, "ate_second_half_position_m": 0.0,
+                    "ate_aligned_position_m": 0.0, "rpe_1s_translation_m": 0.0,
+                    "nees_orientation": float(np.mean(a)), "nees_position": float(np.mean(a)),
+                    "nees_orientation_poses": a, "nees_position_poses": a} for a in runs]
+        text = mc.summarize([(i + 1, [], m) for i, m in enumerate(metrics)])
+        self.assertIn("| orientation | 3.00 | 0.58 | 1.00 | 6.0 | "
+                      "3.00 / 3.00 / 3.00 / 3.00 / 3.00 |", text)
+
 
 if __name__ == "__main__":
     unittest.main()
