@@ -191,7 +191,7 @@ SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
 }
 
 std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, std::size_t k,
-                                                       bool initialized, int* corners) {
+                                                       bool initialized) {
   const std::size_t c = frame.camera;
   CameraBlocks& cb = calibration_.camera(c);
   double* gravity = calibration_.gravity();
@@ -202,7 +202,6 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   }
   // The corners in groups of one factor each, with their landmark block (null: board points).
   std::vector<std::pair<std::vector<CornerObservation>, double*>> groups;
-  *corners = 0;
   if (!rig_.target) {
     const Camera camera = calibration_.currentCamera(c);  // for the tags seen the first time
     for (const auto& tag : frame.tags) {
@@ -216,11 +215,9 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       std::vector<CornerObservation> obs;
       for (int i = 0; i < 4; ++i) obs.push_back({Eigen::Vector3d::Zero(), tag.corners_px[i], i});
       groups.emplace_back(std::move(obs), landmark);
-      *corners += 4;
     }
   } else {
     auto obs = boardCorners(frame, *rig_.target);
-    *corners = static_cast<int>(obs.size());
     if (!obs.empty()) groups.emplace_back(std::move(obs), nullptr);
   }
   if (groups.empty()) return {};
@@ -400,15 +397,15 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
 }
 
 void CameraFrames::add(const TagFrame& frame, std::size_t k, bool initialized) {
-  int corners = 0;
-  auto pieces = factors(frame, k, initialized, &corners);
+  auto pieces = factors(frame, k, initialized);
   if (pieces.empty()) return;
   State* owner = &window_.state(k);
   for (auto& piece : pieces) {
-    window_.addRecord(owner, piece.cost, piece.loss, std::move(piece.blocks));
+    const auto* tag = dynamic_cast<const TagReprojectionFactor*>(piece.cost);
+    window_.addRecord(owner, piece.cost, piece.loss, std::move(piece.blocks), -1,
+                      tag != nullptr ? static_cast<int>(tag->corners().size()) : 0);
   }
   owner->frames += 1;
-  owner->corners += corners;
   last_entered_ = std::max(last_entered_, window_.state(k).t);
 }
 

@@ -89,7 +89,7 @@ class CameraFrames {
   };
   // The frame's factors (and, with options.propagation_noise, the prior of its propagation-noise
   // block, owned by the state); empty when the frame cannot be used.
-  std::vector<Piece> factors(const TagFrame& frame, std::size_t k, bool initialized, int* corners);
+  std::vector<Piece> factors(const TagFrame& frame, std::size_t k, bool initialized);
   // The loss of each of a frame's T tag factors without a board: Huber at huber_sigma /
   // sqrt(T), so that the frame weighs as it would as one factor with the board (the Huber on
   // its whole norm counts a frame of N corners like about 3 sqrt(N/2) of them, see

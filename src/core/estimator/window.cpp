@@ -26,9 +26,10 @@ void Window::push(std::unique_ptr<State> state) {
 }
 
 void Window::addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
-                       std::vector<double*> blocks, int inertial) {
+                       std::vector<double*> blocks, int inertial, int corners) {
   ResidualRecord r;
   r.inertial = inertial;
+  r.corners = corners;
   r.id = problem_->AddResidualBlock(cost, loss, blocks);
   r.cost = cost;
   r.loss = loss;
@@ -82,7 +83,7 @@ SolveSummary Window::summary() const {
   out.states = static_cast<int>(states_.size());
   for (const auto& st : states_) {
     out.frames += st->frames;
-    out.corners += st->corners;
+    for (const ResidualRecord& r : st->residuals) out.corners += r.corners;
   }
   return out;
 }

@@ -41,14 +41,15 @@ class Window {
   // Appends a state and adds its pose and speed-bias blocks.
   void push(std::unique_ptr<State> state);
   // Adds a residual block, recorded with the state it is marginalized with (`inertial`: the
-  // inertial sensor whose readings it holds, if any).
+  // inertial sensor whose readings it holds, if any; `corners`: the tag corners it holds).
   void addRecord(State* owner, ceres::CostFunction* cost, ceres::LossFunction* loss,
-                 std::vector<double*> blocks, int inertial = -1);
+                 std::vector<double*> blocks, int inertial = -1, int corners = 0);
   // Solves the problem: at most `iterations`, `max_time_s` seconds (`callback`, if given,
   // called after every iteration; *converged set to whether Ceres's tests were met).
   SolveSummary solve(int iterations, double max_time_s,
                      ceres::IterationCallback* callback = nullptr, bool* converged = nullptr);
-  // States, frames and corners in the window.
+  // States, frames and corners in the window (a frame's corners moved to the oldest state with
+  // a leaving tag, moveToOldest, count once).
   SolveSummary summary() const;
   // Removes the oldest state: its residual blocks in their recorded order (Ceres's own removal
   // of a parameter block's dependents walks a hash set, whose order by pointer values would make

@@ -25,6 +25,7 @@ struct ResidualRecord {
   const ceres::LossFunction* loss = nullptr;
   std::vector<double*> blocks;
   int inertial = -1;  // the inertial sensor whose readings the factor holds, else -1
+  int corners = 0;    // the tag corners the factor holds (camera factors), else 0
 };
 
 // An auxiliary sensor's state at one window time (state_blocks.h: aux_state or gyro bias).
@@ -45,7 +46,7 @@ struct State {
   std::vector<ResidualRecord> residuals;
   // Propagation-noise blocks of the frames attached to this state (kPropagationNoiseSize each).
   std::vector<std::unique_ptr<double[]>> propagation_noise;
-  int frames = 0, corners = 0;
+  int frames = 0;  // camera frames owned (their corners: the records', which may move)
 
   Eigen::Vector3d biasGyro() const { return Eigen::Vector3d(speed_bias + 3); }
   Eigen::Vector3d biasAccel() const { return Eigen::Vector3d(speed_bias + 6); }
