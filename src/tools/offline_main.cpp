@@ -482,6 +482,11 @@ int main(int argc, char** argv) {
     std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(o.decode_ms, 0.5),
                 percentile(o.decode_ms, 0.99));
   }
+  if (c.degeneracy_checks > 0) {
+    std::printf("; degeneracy checks %.2f ms per solve (%.1f%% of the updates' time)",
+                1e3 * c.degeneracy_check_s / c.degeneracy_checks,
+                update_total_ms > 0.0 ? 100.0 * 1e3 * c.degeneracy_check_s / update_total_ms : 0.0);
+  }
   if (c.window_checks > 0) {
     std::printf("; degeneracy check of the window's information %.1f ms each (%ld checks)",
                 1e3 * c.window_check_s / c.window_checks, c.window_checks);

@@ -429,6 +429,10 @@ struct EstimatorCounters {
   // their total time [s].
   long window_checks = 0;
   double window_check_s = 0.0;
+  // Every degeneracy check before a solve (the per-quantity checks of the report's Tables 2-3,
+  // and the window's above when on): runs and total time [s].
+  long degeneracy_checks = 0;
+  double degeneracy_check_s = 0.0;
 };
 
 class Estimator {

@@ -216,7 +216,10 @@ void Estimator::Impl::process() {
       aux.extend();
       SolveSummary summary;
       if (!options.batch && ++frames_since_solve >= options.solve_every) {
+        const auto check_start = Clock::now();
         monitor.check(window.problem());  // holds what the motion cannot observe before solving
+        ++counters.degeneracy_checks;
+        counters.degeneracy_check_s += seconds(check_start, Clock::now());
         counters.window_checks = monitor.windowChecks();
         counters.window_check_s = monitor.windowCheckSeconds();
         summary = solve(options.max_iterations);
