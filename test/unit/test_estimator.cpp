@@ -373,6 +373,14 @@ TEST(Estimator, DropsAndCountsBadInputAndKeepsCalibrating) {
   EXPECT_EQ(estimator.counters().frames_too_close, too_close);
   EXPECT_EQ(estimator.counters().resets, 0);
   EXPECT_EQ(estimator.counters().imu_gaps, 1);
+  // Every solve of the window is checked for degeneracy first; a first batch's (at most three:
+  // the batch, again after recentring, again after its losses settle; a batch again after each
+  // restart) are not.
+  const EstimatorCounters& c = estimator.counters();
+  EXPECT_LE(c.degeneracy_checks, c.solves);
+  EXPECT_GE(c.degeneracy_checks, c.solves - 3 * (c.restarts + 1));
+  EXPECT_GT(c.degeneracy_checks, 10);
+  EXPECT_GT(c.degeneracy_check_s, 0.0);
   ASSERT_TRUE(estimator.computeCovariance().ok());
   const Rig estimate = estimator.calibration();
   // One small camera (376x240) for 10 s: errors of a few mm are what its uncertainty allows;
