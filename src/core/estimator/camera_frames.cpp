@@ -31,8 +31,9 @@ constexpr std::size_t kBaselineFrames = 300;
 constexpr std::size_t kBaselineMinFrames = 30;
 constexpr double kBaselineRatio = 3.0;
 constexpr double kBaselineFloor = 2.0;
-// settleFirstBatch(): a batch frame whose corners' whitened residuals have a mean square up to
-// this (RMS 2 sigma; about 2 for clean corners) takes the loss per corner.
+// settleFirstBatch(): a batch tag factor whose corners' whitened residuals have a mean square
+// (per corner, both axes) up to this, i.e. an RMS up to 2 sigma, takes the loss per corner; clean
+// corners have about 2.
 constexpr double kSettledMeanSquare = 4.0;
 
 // The prior of a frame's propagation-noise block, N(0, covariance) ([dtheta, dp, dv]); null

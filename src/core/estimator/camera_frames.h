@@ -93,7 +93,8 @@ class CameraFrames {
   // The loss of each of a frame's T tag factors without a board: Huber at huber_sigma /
   // sqrt(T), so that the frame weighs as it would as one factor with the board (the Huber on
   // its whole norm counts a frame of N corners like about 3 sqrt(N/2) of them, see
-  // RobustLoss::kFrame). Used with RobustLoss::kFrame and in the first batch.
+  // RobustLoss::kFrame). Used with RobustLoss::kFrame (the first batch's with kCorner are
+  // batch_losses_).
   ceres::LossFunction* tagLoss(int tags);
   // The camera's pose at the frame: state k's carried there with the readings.
   SE3 cameraPoseAt(const TagFrame& frame, std::size_t k) const;
