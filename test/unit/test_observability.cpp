@@ -159,60 +159,45 @@ TEST(Marginalization, ProjectedResidualsForgetUninformativeDirections) {
   linear(c, {x1}, &Jc, &rc);
   linear(e, {x2}, &Je, &re);
 
-  // Without a kept variance (U unknown) and with one (U held within v = 0.04).
-  std::map<double, Eigen::MatrixXd> alone;  // per v, the prior without the old one
-  for (const double v : {0.0, 0.04})
-    for (const bool with_old_prior : {false, true}) {
-      Marginalizer m;
-      m.setUninformative(x2, u, v > 0.0 ? Eigen::VectorXd::Constant(1, v) : Eigen::VectorXd());
-      m.addResidual(&a, nullptr, {x1, x2}, true);
-      m.addResidual(&c, nullptr, {x1}, true);
-      if (with_old_prior) m.addResidual(&e, nullptr, {x2}, false);
-      auto made = m.marginalize({x1});
-      ASSERT_TRUE(made.ok()) << made.status().message();
-      const MarginalizationFactor& prior = *made.value();
-      const Eigen::MatrixXd H = prior.J0().transpose() * prior.J0();
-      const Eigen::VectorXd g = prior.J0().transpose() * prior.r0();
+  for (const bool with_old_prior : {false, true}) {
+    Marginalizer m;
+    m.setUninformative(x2, u);
+    m.addResidual(&a, nullptr, {x1, x2}, true);
+    m.addResidual(&c, nullptr, {x1}, true);
+    if (with_old_prior) m.addResidual(&e, nullptr, {x2}, false);
+    auto made = m.marginalize({x1});
+    ASSERT_TRUE(made.ok()) << made.status().message();
+    const MarginalizationFactor& prior = *made.value();
+    const Eigen::MatrixXd H = prior.J0().transpose() * prior.J0();
+    const Eigen::VectorXd g = prior.J0().transpose() * prior.r0();
 
-      // Dense: forget U = [0; u] in the projected residuals (marginalized with the prior 1/v on
-      // it, then what is left along it projected away), add the rest, Schur out x1.
-      Eigen::MatrixXd Hp = Ja.transpose() * Ja + Jc.transpose() * Jc;
-      Eigen::VectorXd gp = Ja.transpose() * ra + Jc.transpose() * rc;
-      Eigen::VectorXd U = Eigen::VectorXd::Zero(5);
-      U.tail(3) = u;
-      const Eigen::VectorXd HpU = Hp * U;
-      const double UHU = U.dot(HpU) + (v > 0.0 ? 1.0 / v : 0.0);
-      Eigen::MatrixXd Hf = Hp - HpU * HpU.transpose() / UHU;
-      Eigen::VectorXd gf = gp - HpU * U.dot(gp) / UHU;
-      if (v > 0.0) {
-        const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(5, 5) - U * U.transpose();
-        Hf = P * Hf * P;
-        gf = P * gf;
-      }
-      if (with_old_prior) {
-        Hf += Je.transpose() * Je;
-        gf += Je.transpose() * re;
-      }
-      const Eigen::MatrixXd H11_inv = Hf.topLeftCorner(2, 2).inverse();
-      const Eigen::MatrixXd Hs = Hf.bottomRightCorner(3, 3) -
-                                 Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
-      const Eigen::VectorXd gs = gf.tail(3) - Hf.bottomLeftCorner(3, 2) * H11_inv * gf.head(2);
-      EXPECT_LT((H - Hs).norm(), 1e-8 * Hs.norm()) << with_old_prior << v;
-      EXPECT_LT((g - gs).norm(), 1e-8 * (1.0 + gs.norm())) << with_old_prior << v;
-      if (!with_old_prior) {
-        // Nothing else informs u: the prior says nothing along it.
-        EXPECT_LT((H * u).norm(), 1e-8 * H.norm());
-        alone[v] = H;
-      } else {
-        EXPECT_GT((H * u).norm(), 1e-3 * H.norm());
-      }
+    // Dense: forget U = [0; u] in the projected residuals (marginalized as unknown), add the
+    // rest, Schur out x1.
+    Eigen::MatrixXd Hp = Ja.transpose() * Ja + Jc.transpose() * Jc;
+    Eigen::VectorXd gp = Ja.transpose() * ra + Jc.transpose() * rc;
+    Eigen::VectorXd U = Eigen::VectorXd::Zero(5);
+    U.tail(3) = u;
+    const Eigen::VectorXd HpU = Hp * U;
+    const double UHU = U.dot(HpU);
+    Eigen::MatrixXd Hf = Hp - HpU * HpU.transpose() / UHU;
+    Eigen::VectorXd gf = gp - HpU * U.dot(gp) / UHU;
+    if (with_old_prior) {
+      Hf += Je.transpose() * Je;
+      gf += Je.transpose() * re;
     }
-  // Held within a variance, u keeps what the residuals tell about the rest given it: more than
-  // with u unknown, never less.
-  const Eigen::MatrixXd more = alone[0.04] - alone[0.0];
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (more + more.transpose()));
-  EXPECT_GT(es.eigenvalues().minCoeff(), -1e-9 * alone[0.0].norm());
-  EXPECT_GT(es.eigenvalues().maxCoeff(), 1e-3 * alone[0.0].norm());
+    const Eigen::MatrixXd H11_inv = Hf.topLeftCorner(2, 2).inverse();
+    const Eigen::MatrixXd Hs =
+        Hf.bottomRightCorner(3, 3) - Hf.bottomLeftCorner(3, 2) * H11_inv * Hf.topRightCorner(2, 3);
+    const Eigen::VectorXd gs = gf.tail(3) - Hf.bottomLeftCorner(3, 2) * H11_inv * gf.head(2);
+    EXPECT_LT((H - Hs).norm(), 1e-8 * Hs.norm()) << with_old_prior;
+    EXPECT_LT((g - gs).norm(), 1e-8 * (1.0 + gs.norm())) << with_old_prior;
+    if (!with_old_prior) {
+      // Nothing else informs u: the prior says nothing along it.
+      EXPECT_LT((H * u).norm(), 1e-8 * H.norm());
+    } else {
+      EXPECT_GT((H * u).norm(), 1e-3 * H.norm());
+    }
+  }
 }
 
 // The window's information about chosen blocks against a dense Schur complement computed here:
@@ -279,6 +264,71 @@ TEST(Observability, SharedDirectionInWords) {
   EXPECT_EQ(u.text(),
             "shared direction of imu0 intrinsics (theta_x), cam0 rotation about (1.00, 0.00, "
             "0.00): rotate about another axis too");
+}
+
+// consideredCovariance against the error of the estimate it describes, derived independently:
+// a linear Gaussian model, y = (x in R^3, u in R^2). Truth y ~ N(0, P); a first measurement z0 =
+// A0 y + n0 gives the estimate m0 (information L0 = P^-1 + A0^T A0), whose u part is held: u_h =
+// m0_u with V = (L0^-1)_uu. A second z1 = A1 y + n1 then updates x alone, as the window does
+// with the prior (m0, L0) and u constant: x_hat minimizes (y - m0)^T L0 (y - m0) + |z1 - A1 y|^2
+// with u = u_h. Every quantity is linear in w = (y, n0, n1) ~ N(0, blkdiag(P, I, I)), so the
+// error e = (x_hat - x, u_h - u) = M w has the covariance M Cov(w) M^T exactly. The function gets
+// only Sigma = (L0 + A1^T A1)^-1 (the information with u free), U and V. The conditional
+// covariance alone (u as known) must be far off for the test to mean anything.
+TEST(Observability, ConsideredCovarianceIsTheHeldEstimatesErrorCovariance) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g;
+  const auto random = [&](int r, int c) {
+    Eigen::MatrixXd m(r, c);
+    for (int i = 0; i < r; ++i) {
+      for (int j = 0; j < c; ++j) m(i, j) = g(rng);
+    }
+    return m;
+  };
+  const int nx = 3, nu = 2, n = nx + nu, m0 = 6, m1 = 7;
+  const Eigen::MatrixXd R = random(n, n);
+  const Eigen::MatrixXd P = R * R.transpose() + Eigen::MatrixXd::Identity(n, n);
+  const Eigen::MatrixXd A0 = random(m0, n), A1 = random(m1, n);
+  const Eigen::MatrixXd L0 = P.inverse() + A0.transpose() * A0;
+  const Eigen::MatrixXd K0 = L0.inverse() * A0.transpose();  // m0 = K0 z0
+  const Eigen::MatrixXd V = L0.inverse().bottomRightCorner(nu, nu);
+  // x_hat = H^-1 (L0_xx m0_x - L0_xu (u_h - m0_u) + A1x^T (z1 - A1u u_h)), u_h - m0_u = 0.
+  const Eigen::MatrixXd H =
+      L0.topLeftCorner(nx, nx) + A1.leftCols(nx).transpose() * A1.leftCols(nx);
+  const Eigen::MatrixXd Hinv = H.inverse();
+  const Eigen::MatrixXd uh_of_z0 = K0.bottomRows(nu);
+  const Eigen::MatrixXd xh_of_z0 =
+      Hinv * (L0.topLeftCorner(nx, nx) * K0.topRows(nx) -
+              A1.leftCols(nx).transpose() * A1.rightCols(nu) * uh_of_z0);
+  const Eigen::MatrixXd xh_of_z1 = Hinv * A1.leftCols(nx).transpose();
+  // e = M w, w = (y, n0, n1); z0 = A0 y + n0, z1 = A1 y + n1.
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n + m0 + m1);
+  M.topLeftCorner(nx, n) = xh_of_z0 * A0 + xh_of_z1 * A1;
+  M.topLeftCorner(nx, nx) -= Eigen::MatrixXd::Identity(nx, nx);
+  M.block(0, n, nx, m0) = xh_of_z0;
+  M.block(0, n + m0, nx, m1) = xh_of_z1;
+  M.bottomLeftCorner(nu, n) = uh_of_z0 * A0;
+  M.block(nx, nx, nu, nu) -= Eigen::MatrixXd::Identity(nu, nu);
+  M.block(nx, n, nu, m0) = uh_of_z0;
+  Eigen::MatrixXd W = Eigen::MatrixXd::Identity(n + m0 + m1, n + m0 + m1);
+  W.topLeftCorner(n, n) = P;
+  const Eigen::MatrixXd truth = M * W * M.transpose();
+
+  const Eigen::MatrixXd sigma = (L0 + A1.transpose() * A1).inverse();
+  // U: u's coordinates, turned to V's eigenvectors (a hold keeps its variance per direction).
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(V);
+  Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n, nu);
+  U.bottomRows(nu) = eig.eigenvectors();
+  const Eigen::MatrixXd got = consideredCovariance(sigma, U, eig.eigenvalues());
+  EXPECT_LT((got - truth).norm(), 1e-9 * truth.norm()) << got << "\n\n" << truth;
+  // u keeps its variance when held.
+  EXPECT_LT((got.bottomRightCorner(nu, nu) - V).norm(), 1e-9 * V.norm());
+  // As known (conditioned on u): the x block misses a large share.
+  const Eigen::MatrixXd conditional = H.inverse();
+  EXPECT_GT((conditional - truth.topLeftCorner(nx, nx)).norm(),
+            0.1 * truth.topLeftCorner(nx, nx).norm());
+  // With u free, Sigma itself: not it either.
+  EXPECT_GT((sigma - truth).norm(), 0.1 * truth.norm());
 }
 
 }  // namespace

@@ -33,4 +33,20 @@ struct WeakDirections {
 WeakDirections weakDirections(const Eigen::MatrixXd& W, const Eigen::VectorXd& prior_std,
                               double ratio);
 
+// Directions held at their value while the estimate goes on, as consider parameters (Schmidt):
+// u = U^T y of the stacked tangent vector y is kept at u_h, whose error has the variance
+// diag(v) it had when held (its estimate then), while everything else is estimated given u_h:
+// E[x | data, u = u_h]. With Sigma the covariance of y with u free (all the information there
+// is, u's own included), the error of that estimate has the covariance
+//   Sigma' = Sigma + Sigma U S^-1 (diag(v) - S) S^-1 U^T Sigma,   S = U^T Sigma U:
+// the conditional covariance Sigma - Sigma U S^-1 U^T Sigma plus what u_h's own error, of
+// variance diag(v), moves the rest by (their gain Sigma U S^-1), for a u_h from an estimate that
+// the later data only refine (its difference to the estimate with every datum has the variance
+// diag(v) - S). U^T Sigma' U = diag(v). Computed as G diag(max(l - 1, 0)) G^T added to Sigma,
+// with S = L L^T, L^-1 diag(v) L^-T = Q diag(l) Q^T and G = Sigma U L^-T Q: a direction known
+// better now than when held (l < 1: only round-off, or a variance since lowered) adds nothing.
+// Sigma unchanged if S is not positive definite. U: orthonormal columns.
+Eigen::MatrixXd consideredCovariance(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& U,
+                                     const Eigen::VectorXd& v);
+
 }  // namespace mvis

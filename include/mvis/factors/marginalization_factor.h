@@ -34,18 +34,13 @@
 //   Hp' = Hp - Hp U (U^T Hp U)^+ U^T Hp,   gp' = gp - Hp U (U^T Hp U)^+ U^T gp
 // (Hp' U = 0: no information along U; and the share of the residual that U explains goes with
 // it rather than into other blocks). The others add unchanged. The estimator uses this for
-// calibration directions the recent motion does not make observable (observability.h), so that
-// what leaves the window adds no information along them, which only linearization noise would
-// (the IMU intrinsics' held directions, and the extrinsics' while the cameras' intrinsics are
-// estimated: ObservabilityMonitor::heldDirections).
-// Where the variance V that U's directions keep while held is given, U is marginalized with
-// that prior and what is left along U is projected away (P = I - U U^T):
-//   Hp' = P (Hp - Hp U (U^T Hp U + V^-1)^+ U^T Hp) P,   gp' = P (gp - Hp U (...)^+ U^T gp),
-// between the above (V infinite: U unknown) and conditioning on U (V = 0: P Hp P). Marginalized
-// as unknown, U takes along what the residuals tell about everything correlated with it: held
-// Dw columns of a gyroscope set its rotation axis, the hand-eye relation ties the cameras' tilt
-// to that axis, and on yaw-only motion the cameras' tilt was left to the current window alone
-// (0.5-1.4 deg off; issue 22). Conditioned on U, the rest would be as sure as if U were known.
+// calibration directions the recent motion does not make observable (observability.h) while the
+// cameras' intrinsics are estimated, and for the window check's weak directions
+// (ObservabilityMonitor::heldDirections), so that what leaves the window adds no information
+// along them, which only linearization noise would. Marginalized as unknown, U takes along what
+// the residuals tell about everything correlated with it; the IMU intrinsics' held directions,
+// which the cameras' tilt is tied to, are therefore kept instead, as consider parameters
+// (src/core/estimator/held_covariance.cpp).
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -69,10 +64,9 @@ class Marginalizer {
  public:
   // `manifold` of a block (nullptr: Euclidean); not owned, must outlive the prior.
   void setManifold(const double* block, const ceres::Manifold* manifold);
-  // Tangent directions of `block` (orthonormal columns) that projected residuals must not inform,
-  // and optionally the variance each keeps (see above; empty: unknown, marginalized as such).
-  void setUninformative(const double* block, Eigen::MatrixXd directions,
-                        Eigen::VectorXd variance = Eigen::VectorXd());
+  // Tangent directions of `block` (orthonormal columns) that projected residuals must not inform
+  // (see above: marginalized as unknown).
+  void setUninformative(const double* block, Eigen::MatrixXd directions);
   // A block held constant for the whole run (Ceres never varies it): left out, i.e. conditioned
   // on. The kept blocks' information is the same as with it kept and its rows and columns
   // dropped from the result (the Schur complement's [kept, kept] block does not depend on
@@ -136,7 +130,6 @@ class Marginalizer {
   std::vector<const MarginalizationFactor*> priors_;
   std::map<const double*, const ceres::Manifold*> manifolds_;
   std::map<const double*, Eigen::MatrixXd> uninformative_;
-  std::map<const double*, Eigen::VectorXd> kept_variance_;
   std::set<const double*> fixed_;
   std::set<const double*> alone_;
   bool semidefinite_ = false;

@@ -231,8 +231,7 @@ std::vector<TrustedCalibration::Block> CalibrationBlocks::trustedBlocks(
   return out;
 }
 
-void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
-                                  const TangentCovariance& tangent) {
+void CalibrationBlocks::updateStd(const ceres::Problem& problem, const TangentCovariance& tangent) {
   // A block not estimated now keeps its standard deviations: held whole by the motion, the last
   // computed ones, or before any its prior's (latestStd: the uncertainty it is held at, as the
   // held directions of a partly held block keep theirs); held by the options, 0 (empty here).
@@ -252,9 +251,7 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       out[c].translation = sd.tail<3>();
     }
     if (!problem.IsParameterBlockConstant(cb.time_offset)) {
-      double v = 0.0;
-      cov.GetCovarianceBlock(cb.time_offset, cb.time_offset, &v);
-      out[c].timeshift_cam_imu = std::sqrt(std::max(v, 0.0));
+      out[c].timeshift_cam_imu = std::sqrt(std::max(tangent(cb.time_offset)(0, 0), 0.0));
     } else if (const Eigen::VectorXd k = kept(cb.time_offset); k.size() > 0) {
       out[c].timeshift_cam_imu = k[0];
     }
@@ -280,9 +277,7 @@ void CalibrationBlocks::updateStd(const ceres::Problem& problem, const BlockCova
       if (!a->gyro) sd.translation = v.tail<3>();
     }
     if (!problem.IsParameterBlockConstant(a->time_offset)) {
-      double t = 0.0;
-      cov.GetCovarianceBlock(a->time_offset, a->time_offset, &t);
-      sd.time_offset = std::sqrt(std::max(t, 0.0));
+      sd.time_offset = std::sqrt(std::max(tangent(a->time_offset)(0, 0), 0.0));
     } else if (const Eigen::VectorXd k = kept(a->time_offset); k.size() > 0) {
       sd.time_offset = k[0];
     }

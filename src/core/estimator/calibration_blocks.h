@@ -102,8 +102,7 @@ class CalibrationBlocks {
   // Standard deviations from a computed covariance. Blocks held whole keep theirs: held by the
   // options 0 (not estimated), held by the motion the last computed one, or before any its
   // prior's (the uncertainty it is held at, as the held directions of a partly held block).
-  void updateStd(const ceres::Problem& problem, const BlockCovariance& cov,
-                 const TangentCovariance& tangent);
+  void updateStd(const ceres::Problem& problem, const TangentCovariance& tangent);
   // Latest standard deviations of a camera or auxiliary calibration block in its own tangent
   // (the prior's before any covariance); empty for another block.
   Eigen::VectorXd latestStd(const double* block) const;

@@ -61,14 +61,44 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
   estimator_internal::BlockCovariance cov;
   std::vector<std::pair<const double*, const double*>> blocks;
   double* newest = window.newest().pose;
+  // The IMU intrinsics' held directions free for this computation (considered, held again at
+  // the end: ObservabilityMonitor::considering).
+  const bool consider = clustered == nullptr && monitor.considering();
+  if (consider) monitor.liftConsidered(problem);
+  struct Restore {
+    estimator_internal::ObservabilityMonitor* monitor;
+    ceres::Problem* problem;
+    ~Restore() {
+      if (monitor != nullptr) monitor->restoreConsidered(problem);
+    }
+  } restore{consider ? &monitor : nullptr, problem};
   blocks.emplace_back(newest, newest);
   calibration.covarianceBlocks(*problem, &blocks);
   intrinsics.covarianceBlocks(*problem, &blocks);
   if (!cov.compute(blocks, problem, true, clustered ? &clustered->clusters : nullptr)) {
     return Status::Error("covariance computation failed");
   }
+  Eigen::MatrixXd considered;
+  std::map<const double*, std::pair<int, int>> at;  // first row, size
+  if (consider) {
+    std::vector<const double*> listed;
+    for (const auto& b : blocks) listed.push_back(b.first);
+    considered = monitor.considerCovariance(*problem, cov, listed, &at);
+    if (considered.size() == 0) return Status::Error("covariance computation failed");
+  }
+  const auto from_considered = [&](const double* block) {
+    const auto a = at.find(block);
+    if (a == at.end()) {  // not in the computation: NaN, as tangentCovariance has it
+      const ceres::Manifold* own = monitor.baseManifold(*problem, block);
+      const int t = own != nullptr ? own->TangentSize() : problem->ParameterBlockSize(block);
+      return Eigen::MatrixXd(
+          Eigen::MatrixXd::Constant(t, t, std::numeric_limits<double>::quiet_NaN()));
+    }
+    const auto [first, t] = a->second;
+    return Eigen::MatrixXd(considered.block(first, first, t, t));
+  };
   const estimator_internal::TangentCovariance tangent = [&](const double* block) {
-    return monitor.tangentCovariance(*problem, cov, block);
+    return consider ? from_considered(block) : monitor.tangentCovariance(*problem, cov, block);
   };
   if (clustered != nullptr) {
     clustered->ratio_min = std::numeric_limits<double>::infinity();
@@ -83,14 +113,18 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
     // The calibration with the model's standard deviations, then the clustered ones below.
     cov.showModel(true);
     intrinsics.updateCovariance(*problem, tangent);
-    calibration.updateStd(*problem, cov, tangent);
+    calibration.updateStd(*problem, tangent);
     clustered->model = calibrationEstimate();
     cov.showModel(false);
   }
   intrinsics.updateCovariance(*problem, tangent);
   if (pose_cov != nullptr) {
     cov.showModel(true);  // a pose's covariance is the model's (EstimatorOptions)
-    cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+    if (consider) {
+      *pose_cov = from_considered(newest);
+    } else {
+      cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+    }
     cov.showModel(false);
     if (monitor.holding()) {
       std::vector<Eigen::Matrix<double, 6, 6>> with_held;
@@ -99,7 +133,26 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
       *pose_cov = with_held[0];
     }
   }
-  calibration.updateStd(*problem, cov, tangent);
+  calibration.updateStd(*problem, tangent);
+  const auto joint = [&](const std::vector<const double*>& listed) {
+    if (!consider) return monitor.jointTangentCovariance(*problem, cov, listed);
+    std::vector<int> first, size;
+    int n = 0;
+    for (const double* b : listed) {
+      const auto a = at.find(b);
+      if (a == at.end()) return Eigen::MatrixXd();
+      first.push_back(a->second.first);
+      size.push_back(a->second.second);
+      n += size.back();
+    }
+    Eigen::MatrixXd out(n, n);
+    for (std::size_t i = 0, r = 0; i < listed.size(); r += size[i], ++i) {
+      for (std::size_t j = 0, c = 0; j < listed.size(); c += size[j], ++j) {
+        out.block(r, c, size[i], size[j]) = considered.block(first[i], first[j], size[i], size[j]);
+      }
+    }
+    return out;
+  };
   // A candidate for the trusted calibration (trusted once the next one is offered).
   if (initialized && window_data_s >= kTrustAfterS && failure().empty()) {
     auto offered = trustedBlocks(false);
@@ -107,9 +160,7 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
     for (const auto& b : offered) {
       if (b.estimated) estimated.push_back(b.x);
     }
-    const auto verdict =
-        trusted.offer(std::move(offered), monitor.jointTangentCovariance(*problem, cov, estimated),
-                      window.newestTime());
+    const auto verdict = trusted.offer(std::move(offered), joint(estimated), window.newestTime());
     if (!verdict.failure.empty() && options.failure_step_sigma > 0.0) {
       covariance_failure = "estimate failed: " + verdict.failure;
     }

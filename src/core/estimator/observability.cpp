@@ -1,5 +1,6 @@
 #include "mvis/estimator/observability.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <cstdio>
@@ -60,6 +61,20 @@ WeakDirections weakDirections(const Eigen::MatrixXd& W, const Eigen::VectorXd& p
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(D);
   out.directions = qr.householderQ() * Eigen::MatrixXd::Identity(n, k);
   return out;
+}
+
+Eigen::MatrixXd consideredCovariance(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& U,
+                                     const Eigen::VectorXd& v) {
+  const Eigen::MatrixXd SU = sigma * U;
+  const Eigen::MatrixXd S = U.transpose() * SU;
+  const Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (S + S.transpose()));
+  if (U.cols() == 0 || llt.info() != Eigen::Success) return sigma;
+  const Eigen::MatrixXd Linv = llt.matrixL().solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
+  const Eigen::MatrixXd X = Linv * v.asDiagonal() * Linv.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (X + X.transpose()));
+  const Eigen::MatrixXd G = SU * Linv.transpose() * eig.eigenvectors();
+  const Eigen::VectorXd grow = (eig.eigenvalues().array() - 1.0).cwiseMax(0.0).matrix();
+  return sigma + G * grow.asDiagonal() * G.transpose();
 }
 
 }  // namespace mvis

@@ -53,10 +53,10 @@ class ObservabilityMonitor {
   const std::vector<UnobservableCalibration>& unobservable() const { return unobservable_; }
   const std::map<const double*, Eigen::MatrixXd>& uninformative() const { return uninformative_; }
   // What the marginalization must not learn along: per block the held directions (orthonormal
-  // tangent columns) and the variance each keeps (empty: as unknown). Held extrinsic and time
-  // offset directions are not in it unless the cameras' intrinsics are estimated (see the
+  // tangent columns), marginalized as unknown. Held extrinsic and time offset directions are not
+  // in it unless the cameras' intrinsics are estimated, the IMU intrinsics' never (see the
   // definition).
-  std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>> heldDirections() const;
+  std::map<const double*, Eigen::MatrixXd> heldDirections() const;
 
   // The block's own manifold, also while it is held.
   const ceres::Manifold* baseManifold(const ceres::Problem& problem, const double* block) const;
@@ -67,14 +67,37 @@ class ObservabilityMonitor {
   Eigen::MatrixXd tangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
                                     const double* block) const;
   // The same for several blocks jointly (stacked in the order given, cross-covariances too);
-  // empty if one was not in the computation.
-  Eigen::MatrixXd jointTangentCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
-                                         const std::vector<const double*>& blocks) const;
+  // empty if one was not in the computation. With `considered_lifted` the considered blocks (see
+  // below) were computed lifted, in their own tangents, and get no kept variance here; `offsets`
+  // gets each block's first row and size.
+  Eigen::MatrixXd jointTangentCovariance(
+      const ceres::Problem& problem, const BlockCovariance& cov,
+      const std::vector<const double*>& blocks, bool considered_lifted = false,
+      std::map<const double*, std::pair<int, int>>* offsets = nullptr) const;
   // The pose blocks' covariances with the held directions released at the uncertainty they
   // kept: with them constant it would be as if they were known.
   Status poseCovarianceWithHeld(ceres::Problem* problem, const std::vector<double*>& poses,
                                 std::vector<Eigen::Matrix<double, 6, 6>>* out);
   bool holding() const { return !holds_.empty(); }
+
+  // The IMU intrinsics' held directions as consider parameters (Schmidt's consider analysis;
+  // held_covariance.cpp): what leaves the window is marginalized with them as with any kept
+  // block, so the prior holds what every leaving measurement told about them and across them
+  // (heldDirections leaves them out), the solves hold them at their value, and the covariance
+  // releases them to add what their held value's own uncertainty V makes of everything else:
+  //   Sigma' = Sigma + Sigma_.u Sigma_uu^-1 (V - Sigma_uu) Sigma_uu^-1 Sigma_u.
+  // (Sigma with them free: the information they have). Whether any such direction is held now.
+  bool considering() const;
+  // Those blocks freed (their own manifolds, variable) for a covariance, and held again.
+  void liftConsidered(ceres::Problem* problem) { liftHolds(problem, true); }
+  void restoreConsidered(ceres::Problem* problem) { restoreHolds(problem, true); }
+  // With the considered blocks lifted: the joint tangent covariance of `blocks` (each in its own
+  // manifold's tangent, other holds as jointTangentCovariance has them) with the correction
+  // above; `offsets` gets each block's first row and size. Empty if a block was not in the
+  // computation.
+  Eigen::MatrixXd considerCovariance(const ceres::Problem& problem, const BlockCovariance& cov,
+                                     const std::vector<const double*>& blocks,
+                                     std::map<const double*, std::pair<int, int>>* offsets) const;
   // The joint check's cost: seconds in total and how many times it ran.
   double windowCheckSeconds() const { return window_check_s_; }
   long windowChecks() const { return window_checks_; }
@@ -118,12 +141,14 @@ class ObservabilityMonitor {
   void windowCheck(ceres::Problem* problem);
   // Adds the joint check's parts to uninformative_ and its findings to unobservable_.
   void holdWindowParts();
-  // The holds lifted (own manifolds, variable) and put back.
-  void liftHolds(ceres::Problem* problem);
-  void restoreHolds(ceres::Problem* problem);
+  // The holds (or only the considered ones) lifted (own manifolds, variable) and put back.
+  void liftHolds(ceres::Problem* problem, bool considered_only = false);
+  void restoreHolds(ceres::Problem* problem, bool considered_only = false);
   void spatialQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void intrinsicsQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void applyHolds(ceres::Problem* problem);
+  // An IMU intrinsics block whose held directions are considered (above).
+  bool considered(const double* block) const;
   // The latest tangent covariance of a calibration block: the full one for IMU intrinsics once
   // computed, else diag(latest std^2).
   Eigen::MatrixXd latestCovariance(const double* block) const;
@@ -145,6 +170,7 @@ class ObservabilityMonitor {
   bool window_weak_ = false;  // the last joint check found weak directions (release at 4x)
   double window_check_s_ = 0.0;
   long window_checks_ = 0;
+  bool consider_ = false;  // the IMU intrinsics' holds as consider parameters (online only)
 };
 
 }  // namespace estimator_internal

@@ -7,8 +7,7 @@ namespace estimator_internal {
 
 StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
-    const ManifoldOf& manifold_of,
-    const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
+    const ManifoldOf& manifold_of, const std::map<const double*, Eigen::MatrixXd>& uninformative,
     const std::set<const double*>& fixed, const std::set<const double*>& alone, bool semidefinite,
     bool rows) const {
   Marginalizer m;
@@ -24,9 +23,7 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
     for (double* block : whole_->parameterBlocks()) m.setManifold(block, manifold_of(block));
     m.addPrior(whole_.get());
   }
-  for (const auto& [block, held] : uninformative) {
-    m.setUninformative(block, held.first, held.second);
-  }
+  for (const auto& [block, held] : uninformative) m.setUninformative(block, held);
   return m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
 }
 

@@ -31,15 +31,14 @@ class WindowPrior {
   // The prior after marginalizing `leaving` out of `residuals` and the current prior; nothing
   // changes in the problem yet. Blocks in `fixed` (constant for the whole run) are conditioned
   // on, as the solves do. The measurements add nothing along `uninformative` (per block,
-  // tangent directions as columns, and the variance each keeps while held:
-  // marginalization_factor.h); the old prior keeps what earlier motion told. The leaving blocks
+  // tangent directions as columns: marginalization_factor.h); the old prior keeps what earlier
+  // motion told. The leaving blocks
   // in `alone` couple to few others and are eliminated one at a time, and a semi-definite result
   // is factored as such with `semidefinite` (Marginalizer). Without `rows` it is made as its
   // information only, for the next marginalization alone (install adds nothing to the problem).
   StatusOr<std::unique_ptr<MarginalizationFactor>> marginalize(
       const std::vector<ResidualRecord>& residuals, const std::vector<double*>& leaving,
-      const ManifoldOf& manifold_of,
-      const std::map<const double*, std::pair<Eigen::MatrixXd, Eigen::VectorXd>>& uninformative,
+      const ManifoldOf& manifold_of, const std::map<const double*, Eigen::MatrixXd>& uninformative,
       const std::set<const double*>& fixed, const std::set<const double*>& alone = {},
       bool semidefinite = false, bool rows = true) const;
   // Removes the current prior's rows from the problem and forgets it.

@@ -38,14 +38,8 @@ void Marginalizer::setManifold(const double* block, const ceres::Manifold* manif
   manifolds_[block] = manifold;
 }
 
-void Marginalizer::setUninformative(const double* block, Eigen::MatrixXd directions,
-                                    Eigen::VectorXd variance) {
+void Marginalizer::setUninformative(const double* block, Eigen::MatrixXd directions) {
   uninformative_[block] = std::move(directions);
-  if (variance.size() > 0) {
-    kept_variance_[block] = std::move(variance);
-  } else {
-    kept_variance_.erase(block);
-  }
 }
 
 void Marginalizer::addResidual(const ceres::CostFunction* cost, const ceres::LossFunction* loss,
@@ -249,9 +243,8 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
   }
   if (any_projected) {
     // The projected residuals forget the uninformative directions U: the components along U
-    // are marginalized out of their (Hp, gp), with U's kept variance as its prior where given,
-    // which takes both the information along U and the share of the residual that U explains
-    // (within that variance), so that nothing else has to absorb it.
+    // are marginalized out of their (Hp, gp), which takes both the information along U and the
+    // share of the residual that U explains, so that nothing else has to absorb it.
     // U's columns in the entries' order: the map's order is the blocks' addresses, and a
     // different column order rounds U^T Hp U's pseudo-inverse differently (the same bag gave
     // estimates differing in the 12th digit with its path spelled otherwise).
@@ -261,33 +254,19 @@ StatusOr<Marginalizer::Reduced> Marginalizer::reduce(const std::set<const double
       if (u != uninformative_.end()) k += static_cast<int>(u->second.cols());
     }
     Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n, k);
-    Eigen::VectorXd kept_information = Eigen::VectorXd::Zero(k);  // 1 / kept variance
     int col = 0;
     for (const Entry& e : entries) {
       const auto u = uninformative_.find(e.address);
       if (u == uninformative_.end()) continue;
       const Eigen::MatrixXd& D = u->second;
       U.block(e.offset, col, e.tangent, D.cols()) = D;
-      const auto v = kept_variance_.find(e.address);
-      if (v != kept_variance_.end() && v->second.size() == D.cols()) {
-        kept_information.segment(col, D.cols()) =
-            v->second.cwiseMax(1e-30).cwiseInverse();  // 0: as known
-      }
       col += static_cast<int>(D.cols());
     }
     if (k > 0) {
       const Eigen::MatrixXd HpU = Hp * U;
-      Eigen::MatrixXd UHU = U.transpose() * HpU;
-      UHU.diagonal() += kept_information;
-      const Eigen::MatrixXd inv = pseudoInverse(UHU, eps);
+      const Eigen::MatrixXd inv = pseudoInverse(U.transpose() * HpU, eps);
       Hp -= HpU * inv * HpU.transpose();
       gp -= HpU * (inv * (U.transpose() * gp));
-      if (kept_information.any()) {
-        // What is left along U (the kept variance's share) goes too: none along U.
-        const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n) - U * U.transpose();
-        Hp = P * Hp * P;
-        gp = P * gp;
-      }
     }
     H += Hp;
     g += gp;

@@ -1,0 +1,124 @@
+// Covariances with held directions: the pose's with every hold released at the uncertainty it
+// kept, and the IMU intrinsics' holds as consider parameters (observability_monitor.h; the
+// formula: mvis/estimator/observability.h, consideredCovariance).
+//
+// An IMU intrinsics' held direction u is kept at its value u_h while the window goes on, and the
+// solves give the rest conditioned on it. Its error, of the variance V it had when held, then
+// moves the rest by their gain on u, which the covariance adds once, however many
+// marginalizations the hold lasts; that needs the prior to keep what every leaving measurement
+// told along u and across it and the rest, so those directions are marginalized as kept blocks
+// (heldDirections leaves them out).
+#include <algorithm>
+
+#include "mvis/estimator/observability.h"
+#include "mvis/factors/tangent_prior_factor.h"
+#include "observability_monitor.h"
+
+namespace mvis::estimator_internal {
+
+bool ObservabilityMonitor::considered(const double* block) const {
+  return consider_ && holds_.count(block) > 0 && intrinsics_.isBlock(block);
+}
+
+bool ObservabilityMonitor::considering() const {
+  for (const auto& entry : holds_) {
+    if (considered(entry.first)) return true;
+  }
+  return false;
+}
+
+Eigen::MatrixXd ObservabilityMonitor::considerCovariance(
+    const ceres::Problem& problem, const BlockCovariance& cov,
+    const std::vector<const double*>& blocks,
+    std::map<const double*, std::pair<int, int>>* offsets) const {
+  const Eigen::MatrixXd sigma = jointTangentCovariance(problem, cov, blocks, true, offsets);
+  if (sigma.size() == 0) return sigma;
+  // The considered directions' columns, at their blocks' rows, and their kept variances.
+  std::vector<std::pair<int, const Hold*>> consider;  // (first row, hold)
+  int q = 0;
+  for (const double* block : blocks) {
+    if (!considered(block)) continue;
+    const Hold& hold = holds_.at(block);
+    consider.emplace_back(offsets->at(block).first, &hold);
+    q += static_cast<int>(hold.directions.cols());
+  }
+  Eigen::MatrixXd U = Eigen::MatrixXd::Zero(sigma.rows(), q);
+  Eigen::VectorXd v(q);
+  int col = 0;
+  for (const auto& [row, hold] : consider) {
+    const auto k = static_cast<int>(hold->directions.cols());
+    U.block(row, col, hold->directions.rows(), k) = hold->directions;
+    v.segment(col, k) = hold->variance;
+    col += k;
+  }
+  return consideredCovariance(sigma, U, v);
+}
+
+Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
+                                                    const std::vector<double*>& poses,
+                                                    std::vector<Eigen::Matrix<double, 6, 6>>* out) {
+  // The pose depends on what is held (a camera's translation along the only rotation axis
+  // moves imu0's position in the board frame along it): with the held directions constant its
+  // covariance would be as if they were known. Released for this computation, with a prior of
+  // the uncertainty they kept, they carry it into the pose. The window may still know a little
+  // along them (the marginalization prior keeps what earlier motion told, which is part of the
+  // kept variance too), so the pose's variance along them is at worst about half what it is.
+  // Considered holds get no prior: the window has their information, and the correction above
+  // adds what their kept variance makes of the pose.
+  std::vector<ceres::ResidualBlockId> added;
+  // In the order they were held, not by address: the residuals' order is the covariance's.
+  std::vector<std::pair<std::uint64_t, const double*>> order;
+  for (const auto& [block, hold] : holds_) order.emplace_back(hold.sequence, block);
+  std::sort(order.begin(), order.end());
+  liftHolds(problem);
+  std::vector<const double*> considered_blocks;
+  for (const auto& [sequence, const_block] : order) {
+    if (considered(const_block)) {
+      considered_blocks.push_back(const_block);
+      continue;
+    }
+    Hold& hold = holds_.at(const_block);
+    double* block = const_cast<double*>(const_block);
+    const int ambient = problem->ParameterBlockSize(block);
+    added.push_back(problem->AddResidualBlock(
+        new TangentPriorFactor(hold.base, std::vector<double>(block, block + ambient),
+                               hold.directions, hold.variance.cwiseMax(1e-30).cwiseSqrt()),
+        nullptr, block));
+  }
+  BlockCovariance cov;
+  std::vector<std::pair<const double*, const double*>> listed;
+  for (double* pose : poses) listed.emplace_back(pose, pose);
+  for (const double* b : considered_blocks) listed.emplace_back(b, b);
+  const bool ok = cov.compute(listed, problem, !considered_blocks.empty());
+  out->assign(poses.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  for (std::size_t k = 0; ok && k < poses.size(); ++k) {
+    if (considered_blocks.empty()) {
+      cov.GetCovarianceBlockInTangentSpace(poses[k], poses[k], (*out)[k].data());
+      continue;
+    }
+    // Every hold is lifted here: the considered ones' rows are their own tangents.
+    std::vector<const double*> joint{poses[k]};
+    joint.insert(joint.end(), considered_blocks.begin(), considered_blocks.end());
+    Eigen::MatrixXd C;
+    if (!cov.joint(joint, &C)) continue;
+    Eigen::MatrixXd U = Eigen::MatrixXd::Zero(C.rows(), 0);
+    Eigen::VectorXd v(0);
+    int row = 6;
+    for (const double* b : considered_blocks) {
+      const Hold& hold = holds_.at(b);
+      const auto n = static_cast<int>(hold.directions.cols());
+      U.conservativeResize(Eigen::NoChange, U.cols() + n);
+      U.rightCols(n).setZero();
+      U.block(row, U.cols() - n, hold.directions.rows(), n) = hold.directions;
+      v.conservativeResize(v.size() + n);
+      v.tail(n) = hold.variance;
+      row += static_cast<int>(hold.directions.rows());
+    }
+    (*out)[k] = consideredCovariance(C, U, v).topLeftCorner<6, 6>();
+  }
+  for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
+  restoreHolds(problem);
+  return ok ? Status::Ok() : Status::Error("pose covariance with the held directions failed");
+}
+
+}  // namespace mvis::estimator_internal
