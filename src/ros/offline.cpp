@@ -249,8 +249,16 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   result.wall_seconds = msSince(start) * 1e-3;
   const std::string missing = silent();
   if (!estimator->initialized()) {
-    return Status::Error("the estimator never initialized: " + estimator->status() +
-                         (missing.empty() ? "" : " (" + missing + ")"));
+    // Started over (a fault, a restart of the base IMU's clock) too near the end to initialize
+    // again: what it estimated before is still the result, its calibration the one it started
+    // over from. Only a run that never got a state has nothing to write.
+    if (batch || estimator->trajectory().empty()) {
+      return Status::Error("the estimator never initialized: " + estimator->status() +
+                           (missing.empty() ? "" : " (" + missing + ")"));
+    }
+    result.warnings.push_back(
+        "the estimator was initializing again at the end of the bag (" + estimator->status() +
+        "): the calibration written is the one it started over from, the trajectory ends there");
   }
   if (!missing.empty()) result.warnings.push_back(missing);
   if (batch) {
@@ -258,7 +266,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     if (!solved.ok()) return solved.status();
     result.batch = std::move(solved).value();
     result.wall_seconds = msSince(start) * 1e-3;
-  } else {
+  } else if (estimator->initialized()) {
     const Status covariance = estimator->computeCovariance();
     if (!covariance.ok()) result.warnings.push_back(covariance.message());
   }

@@ -116,5 +116,42 @@ TEST(OfflineInputs, WarningsAreSummedUpByKind) {
   fs::remove_all(dir);
 }
 
+// A base-IMU hole (0.1 s, beyond imu_max_gap) 0.3 s before the end of the bag: the window starts
+// over from the trusted calibration and cannot initialize again before the bag ends. What it
+// estimated is still written (before: "the estimator never initialized", and nothing).
+TEST(OfflineInputs, AStartOverAtTheEndStillGivesTheResult) {
+  const std::string rig_dir = std::string(MVIS_SOURCE_DIR) + "/config/sim_small_rig";
+  const Rig truth = loadRig(rig_dir).value();
+  SimulationConfig config = loadSimulationConfig(rig_dir + "/sim.yaml", 1).value();
+  config.camera_output = CameraOutput::kDetections;
+  config.duration_s = 10.0;
+  const fs::path dir = fs::temp_directory_path() / "mvis_offline_inputs_late_restart";
+  fs::remove_all(dir);
+  ASSERT_TRUE(writeSimulationBag(truth, config, dir.string()).ok());
+  {
+    rosbag::Bag in((dir / "sim.bag").string(), rosbag::bagmode::Read);
+    rosbag::Bag out((dir / "late.bag").string(), rosbag::bagmode::Write);
+    rosbag::View view(in);
+    const ros::Time begin = view.getBeginTime();
+    for (const rosbag::MessageInstance& m : view) {
+      const double t = (m.getTime() - begin).toSec();
+      if (m.getTopic() == "/imu0" && t >= 9.6 && t < 9.7) continue;
+      out.write(m.getTopic(), m.getTime(), m);
+    }
+  }
+  const Rig guess = loadRig((dir / "config").string()).value();
+  OfflineOptions options;
+  options.estimator.pixel_sigma_px = config.pixel_noise_px;
+  const auto r = runOffline(guess, (dir / "late.bag").string(), options);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r.value().counters.restarts, 1);
+  EXPECT_GT(r.value().trajectory.size(), 100u);
+  bool said = false;
+  for (const auto& w : r.value().warnings)
+    said = said || w.find("initializing again") != std::string::npos;
+  EXPECT_TRUE(said);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mvis
