@@ -132,7 +132,22 @@ class ObservabilityMonitor {
     Eigen::VectorXd variance;
     std::uint64_t sequence = 0;  // when first held: an order that is not the block's address
   };
-  struct Quantity;
+  // One calibrated quantity: rows [offset, offset + size) of its block's tangent, and the
+  // information the recent motion gives it (tangent coordinates).
+  struct Quantity {
+    std::string sensor, name;
+    const double* block;
+    int offset, size;
+    Eigen::VectorXd prior_std;
+    Eigen::Matrix3d to_I;  // tangent coordinates to the base IMU frame
+    Eigen::MatrixXd information;
+    // IMU intrinsics only: the channel ("gyro", "gravity", "accel"), the block's tangent rows
+    // (instead of offset..offset+size) and their ambient entries in the intrinsics block.
+    std::string symbol = {};
+    std::vector<int> rows = {};
+    std::vector<int> elements = {};
+    bool kalibr = false;  // the block's parametrization (imu_reintegration.h)
+  };
 
   // The window's information about every estimated calibration block jointly
   // (window_information.h), whitened by the blocks' priors and restricted to what the checks
