@@ -120,13 +120,9 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
   intrinsics.updateCovariance(*problem, tangent);
   if (pose_cov != nullptr) {
     cov.showModel(true);  // a pose's covariance is the model's (EstimatorOptions)
-    if (consider) {
-      *pose_cov = from_considered(newest);
-    } else {
-      cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
-    }
+    cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
     cov.showModel(false);
-    if (monitor.holding()) {
+    if (monitor.holding()) {  // always while considering
       std::vector<Eigen::Matrix<double, 6, 6>> with_held;
       const Status s = monitor.poseCovarianceWithHeld(problem, {newest}, &with_held);
       if (!s.ok()) return s;

@@ -63,7 +63,7 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
   // the uncertainty they kept, they carry it into the pose. The window may still know a little
   // along them (the marginalization prior keeps what earlier motion told, which is part of the
   // kept variance too), so the pose's variance along them is at worst about half what it is.
-  // Considered holds get no prior: the window has their information, and the correction above
+  // Considered holds get no prior: the window has their information, and consideredCovariance
   // adds what their kept variance makes of the pose.
   std::vector<ceres::ResidualBlockId> added;
   // In the order they were held, not by address: the residuals' order is the covariance's.
@@ -89,7 +89,7 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
   std::vector<std::pair<const double*, const double*>> listed;
   for (double* pose : poses) listed.emplace_back(pose, pose);
   for (const double* b : considered_blocks) listed.emplace_back(b, b);
-  const bool ok = cov.compute(listed, problem, !considered_blocks.empty());
+  bool ok = cov.compute(listed, problem, !considered_blocks.empty());
   out->assign(poses.size(), Eigen::Matrix<double, 6, 6>::Zero());
   for (std::size_t k = 0; ok && k < poses.size(); ++k) {
     if (considered_blocks.empty()) {
@@ -100,7 +100,8 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
     std::vector<const double*> joint{poses[k]};
     joint.insert(joint.end(), considered_blocks.begin(), considered_blocks.end());
     Eigen::MatrixXd C;
-    if (!cov.joint(joint, &C)) continue;
+    ok = cov.joint(joint, &C);
+    if (!ok) break;
     Eigen::MatrixXd U = Eigen::MatrixXd::Zero(C.rows(), 0);
     Eigen::VectorXd v(0);
     int row = 6;
