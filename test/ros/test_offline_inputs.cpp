@@ -6,6 +6,7 @@
 #include <rosbag/view.h>
 
 #include <filesystem>
+#include <functional>
 
 #include "mvis/rig/rig_io.h"
 #include "mvis/ros/offline.h"
@@ -75,35 +76,47 @@ TEST(OfflineInputs, AWrongTopicNamesTheTopicsTheBagHas) {
   fs::remove_all(png);
 }
 
-// A bag with 0.3 s of imu0 missing at 5 s and one of imu1's readings repeated: each is one kind of
-// warning, counted, with the bag time it first happened.
-TEST(OfflineInputs, WarningsAreSummedUpByKind) {
+// The small rig's detections (`duration_s`, 0: its sim.yaml's), copied message by message by
+// `copy(out, message, t)` (t: seconds into the bag) into an edited bag, run offline from the
+// configured guess.
+StatusOr<OfflineResult> runEdited(
+    const std::string& name, double duration_s,
+    const std::function<void(rosbag::Bag*, const rosbag::MessageInstance&, double)>& copy) {
   const std::string rig_dir = std::string(MVIS_SOURCE_DIR) + "/config/sim_small_rig";
   const Rig truth = loadRig(rig_dir).value();
   SimulationConfig config = loadSimulationConfig(rig_dir + "/sim.yaml", 1).value();
   config.camera_output = CameraOutput::kDetections;
-  const fs::path dir = fs::temp_directory_path() / "mvis_offline_inputs_warnings";
+  if (duration_s > 0.0) config.duration_s = duration_s;
+  const fs::path dir = fs::temp_directory_path() / ("mvis_offline_inputs_" + name);
   fs::remove_all(dir);
-  ASSERT_TRUE(writeSimulationBag(truth, config, dir.string()).ok());
+  const auto written = writeSimulationBag(truth, config, dir.string());
+  if (!written.ok()) return written.status();
   {
     rosbag::Bag in((dir / "sim.bag").string(), rosbag::bagmode::Read);
-    rosbag::Bag out((dir / "faulty.bag").string(), rosbag::bagmode::Write);
+    rosbag::Bag out((dir / "edited.bag").string(), rosbag::bagmode::Write);
     rosbag::View view(in);
     const ros::Time begin = view.getBeginTime();
-    int repeated = 0;
-    for (const rosbag::MessageInstance& m : view) {
-      const double t = (m.getTime() - begin).toSec();
-      if (m.getTopic() == "/imu0" && t >= 5.0 && t < 5.3) continue;
-      out.write(m.getTopic(), m.getTime(), m);
-      if (m.getTopic() == "/imu1" && t >= 7.0 && repeated++ == 0) {
-        out.write(m.getTopic(), m.getTime(), m);
-      }
-    }
+    for (const rosbag::MessageInstance& m : view) copy(&out, m, (m.getTime() - begin).toSec());
   }
   const Rig guess = loadRig((dir / "config").string()).value();
   OfflineOptions options;
   options.estimator.pixel_sigma_px = config.pixel_noise_px;
-  const auto r = runOffline(guess, (dir / "faulty.bag").string(), options);
+  auto result = runOffline(guess, (dir / "edited.bag").string(), options);
+  fs::remove_all(dir);
+  return result;
+}
+
+// A bag with 0.3 s of imu0 missing at 5 s and one of imu1's readings repeated: each is one kind of
+// warning, counted, with the bag time it first happened.
+TEST(OfflineInputs, WarningsAreSummedUpByKind) {
+  int repeated = 0;
+  const auto r = runEdited("warnings", 0.0, [&](rosbag::Bag* out, const auto& m, double t) {
+    if (m.getTopic() == "/imu0" && t >= 5.0 && t < 5.3) return;
+    out->write(m.getTopic(), m.getTime(), m);
+    if (m.getTopic() == "/imu1" && t >= 7.0 && repeated++ == 0) {
+      out->write(m.getTopic(), m.getTime(), m);
+    }
+  });
   ASSERT_TRUE(r.ok()) << r.status().message();
   const auto& kinds = r.value().warning_kinds;
   ASSERT_EQ(kinds.size(), 2u);
@@ -113,44 +126,24 @@ TEST(OfflineInputs, WarningsAreSummedUpByKind) {
   EXPECT_EQ(kinds[1].example, "imu1: reading out of order or repeated, dropped");
   EXPECT_EQ(kinds[1].count, 1);
   EXPECT_NEAR(kinds[1].first_s, 7.0, 0.01);
-  fs::remove_all(dir);
 }
 
 // A base-IMU hole (0.1 s, beyond imu_max_gap) 0.3 s before the end of the bag: the window starts
 // over from the trusted calibration and cannot initialize again before the bag ends. What it
 // estimated is still written (before: "the estimator never initialized", and nothing).
 TEST(OfflineInputs, AStartOverAtTheEndStillGivesTheResult) {
-  const std::string rig_dir = std::string(MVIS_SOURCE_DIR) + "/config/sim_small_rig";
-  const Rig truth = loadRig(rig_dir).value();
-  SimulationConfig config = loadSimulationConfig(rig_dir + "/sim.yaml", 1).value();
-  config.camera_output = CameraOutput::kDetections;
-  config.duration_s = 10.0;
-  const fs::path dir = fs::temp_directory_path() / "mvis_offline_inputs_late_restart";
-  fs::remove_all(dir);
-  ASSERT_TRUE(writeSimulationBag(truth, config, dir.string()).ok());
-  {
-    rosbag::Bag in((dir / "sim.bag").string(), rosbag::bagmode::Read);
-    rosbag::Bag out((dir / "late.bag").string(), rosbag::bagmode::Write);
-    rosbag::View view(in);
-    const ros::Time begin = view.getBeginTime();
-    for (const rosbag::MessageInstance& m : view) {
-      const double t = (m.getTime() - begin).toSec();
-      if (m.getTopic() == "/imu0" && t >= 9.6 && t < 9.7) continue;
-      out.write(m.getTopic(), m.getTime(), m);
-    }
-  }
-  const Rig guess = loadRig((dir / "config").string()).value();
-  OfflineOptions options;
-  options.estimator.pixel_sigma_px = config.pixel_noise_px;
-  const auto r = runOffline(guess, (dir / "late.bag").string(), options);
+  const auto r = runEdited("late_restart", 10.0, [](rosbag::Bag* out, const auto& m, double t) {
+    if (m.getTopic() == "/imu0" && t >= 9.6 && t < 9.7) return;
+    out->write(m.getTopic(), m.getTime(), m);
+  });
   ASSERT_TRUE(r.ok()) << r.status().message();
   EXPECT_EQ(r.value().counters.restarts, 1);
   EXPECT_GT(r.value().trajectory.size(), 100u);
   bool said = false;
-  for (const auto& w : r.value().warnings)
+  for (const auto& w : r.value().warnings) {
     said = said || w.find("initializing again") != std::string::npos;
+  }
   EXPECT_TRUE(said);
-  fs::remove_all(dir);
 }
 
 }  // namespace
