@@ -79,6 +79,7 @@ class ObservabilityMonitor {
   Status poseCovarianceWithHeld(ceres::Problem* problem, const std::vector<double*>& poses,
                                 std::vector<Eigen::Matrix<double, 6, 6>>* out);
   bool holding() const { return !holds_.empty(); }
+  bool holds(const double* block) const { return holds_.count(block) > 0; }
 
   // The IMU intrinsics' held directions as consider parameters (Schmidt's consider analysis;
   // held_covariance.cpp): what leaves the window is marginalized with them as with any kept
