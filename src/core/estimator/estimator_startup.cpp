@@ -233,8 +233,8 @@ void Estimator::Impl::initialize() {
   // it the cameras' rotations ended overconfident by about as much as their start was off (12
   // hand-held runs with every IMU's intrinsics: RMS error/sigma 1.15-1.20 from the simulated
   // guess, 1.07-1.12 from the truth, 1.03-1.08 in the batch over the recording; 24 runs: 1.20-1.23
-  // before, 1.16-1.19 with it). Solved again on
-  // one-axis rotation, what those ten frames cannot tell moved the cameras' tilt 0.5 deg. Not
+  // before, 1.16-1.19 with it). Solved again on one-axis rotation, what those ten frames cannot
+  // tell moved the cameras' tilt 0.5 deg. Not
   // after a restart from a trusted calibration (the batch settles the states only, above), nor
   // in a batch over the recording (no state leaves; it starts from the given calibration).
   if (!options.batch && !aux_after_batch && !trusted.fromCovariance()) {
