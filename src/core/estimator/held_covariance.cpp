@@ -27,30 +27,36 @@ bool ObservabilityMonitor::considering() const {
   return false;
 }
 
+void ObservabilityMonitor::consideredColumns(const std::vector<std::pair<int, const double*>>& at,
+                                             int rows, Eigen::MatrixXd* U,
+                                             Eigen::VectorXd* v) const {
+  int q = 0;
+  for (const auto& entry : at) q += static_cast<int>(holds_.at(entry.second).directions.cols());
+  *U = Eigen::MatrixXd::Zero(rows, q);
+  v->resize(q);
+  int col = 0;
+  for (const auto& [row, block] : at) {
+    const Hold& hold = holds_.at(block);
+    const auto k = static_cast<int>(hold.directions.cols());
+    U->block(row, col, hold.directions.rows(), k) = hold.directions;
+    v->segment(col, k) = hold.variance;
+    col += k;
+  }
+}
+
 Eigen::MatrixXd ObservabilityMonitor::considerCovariance(
     const ceres::Problem& problem, const BlockCovariance& cov,
     const std::vector<const double*>& blocks,
     std::map<const double*, std::pair<int, int>>* offsets) const {
   const Eigen::MatrixXd sigma = jointTangentCovariance(problem, cov, blocks, true, offsets);
   if (sigma.size() == 0) return sigma;
-  // The considered directions' columns, at their blocks' rows, and their kept variances.
-  std::vector<std::pair<int, const Hold*>> consider;  // (first row, hold)
-  int q = 0;
+  std::vector<std::pair<int, const double*>> at;  // the considered blocks' first rows
   for (const double* block : blocks) {
-    if (!considered(block)) continue;
-    const Hold& hold = holds_.at(block);
-    consider.emplace_back(offsets->at(block).first, &hold);
-    q += static_cast<int>(hold.directions.cols());
+    if (considered(block)) at.emplace_back(offsets->at(block).first, block);
   }
-  Eigen::MatrixXd U = Eigen::MatrixXd::Zero(sigma.rows(), q);
-  Eigen::VectorXd v(q);
-  int col = 0;
-  for (const auto& [row, hold] : consider) {
-    const auto k = static_cast<int>(hold->directions.cols());
-    U.block(row, col, hold->directions.rows(), k) = hold->directions;
-    v.segment(col, k) = hold->variance;
-    col += k;
-  }
+  Eigen::MatrixXd U;
+  Eigen::VectorXd v;
+  consideredColumns(at, static_cast<int>(sigma.rows()), &U, &v);
   return consideredCovariance(sigma, U, v);
 }
 
@@ -102,19 +108,15 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
     Eigen::MatrixXd C;
     ok = cov.joint(joint, &C);
     if (!ok) break;
-    Eigen::MatrixXd U = Eigen::MatrixXd::Zero(C.rows(), 0);
-    Eigen::VectorXd v(0);
+    std::vector<std::pair<int, const double*>> at;
     int row = 6;
     for (const double* b : considered_blocks) {
-      const Hold& hold = holds_.at(b);
-      const auto n = static_cast<int>(hold.directions.cols());
-      U.conservativeResize(Eigen::NoChange, U.cols() + n);
-      U.rightCols(n).setZero();
-      U.block(row, U.cols() - n, hold.directions.rows(), n) = hold.directions;
-      v.conservativeResize(v.size() + n);
-      v.tail(n) = hold.variance;
-      row += static_cast<int>(hold.directions.rows());
+      at.emplace_back(row, b);
+      row += static_cast<int>(holds_.at(b).directions.rows());
     }
+    Eigen::MatrixXd U;
+    Eigen::VectorXd v;
+    consideredColumns(at, static_cast<int>(C.rows()), &U, &v);
     (*out)[k] = consideredCovariance(C, U, v).topLeftCorner<6, 6>();
   }
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);

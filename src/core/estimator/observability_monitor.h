@@ -163,6 +163,10 @@ class ObservabilityMonitor {
   void spatialQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void intrinsicsQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void applyHolds(ceres::Problem* problem);
+  // The considered holds' directions as the columns U of a stacked tangent vector of `rows`
+  // (each block's at its first row, `at`: (row, block)) and the variances v they kept.
+  void consideredColumns(const std::vector<std::pair<int, const double*>>& at, int rows,
+                         Eigen::MatrixXd* U, Eigen::VectorXd* v) const;
   // An IMU intrinsics block whose held directions are considered (above).
   bool considered(const double* block) const;
   // The latest tangent covariance of a calibration block: the full one for IMU intrinsics once
