@@ -10,24 +10,12 @@
 #include <cstdio>
 #include <random>
 
-#include "estimator_test_util.h"
+#include "imu_intrinsics_test_util.h"
 
 namespace mvis {
 namespace {
 
 using namespace mvis::test;  // NOLINT(google-build-using-namespace): the shared test helpers
-
-// Truth: every inertial sensor rpng with intrinsics of Table 4 size (a gyroscope: Tw only).
-void withIntrinsics(Rig* rig) {
-  for (auto& s : rig->inertial) {
-    s.model = ImuModel::kRpng;
-    s.intrinsics.Tw << 1.003, -0.002, 0.003, 0, 0.997, 0.002, 0, 0, 1.002;
-    if (s.type == InertialType::kGyroscope) continue;
-    s.intrinsics.Ta << 0.998, 0.003, -0.002, 0, 1.003, 0.001, 0, 0, 0.997;
-    s.intrinsics.Tg << 1e-3, -1e-3, 5e-4, 5e-4, 1e-3, -5e-4, -1e-3, 5e-4, 1e-3;
-    s.intrinsics.R_IMUtoACC = lie::expSO3(Eigen::Vector3d(0.003, -0.003, 0.002));
-  }
-}
 
 // The same in the kalibr model (OpenVINS's and Kalibr's): Tw, Ta lower triangular, the rotation
 // on the gyroscope (R_IMUtoGYRO) instead of the accelerometer.
@@ -45,36 +33,6 @@ void withKalibrIntrinsics(Rig* rig) {
 // The rotation the model estimates.
 const Eigen::Matrix3d& modelRotation(const InertialSensor& s) {
   return s.model == ImuModel::kKalibr ? s.intrinsics.R_IMUtoGYRO : s.intrinsics.R_IMUtoACC;
-}
-
-// The guess: the truth's intrinsics perturbed as in Table 4 times `scale` (Dw, Da 3e-3 per
-// element, Tg 1e-3, R_IMUtoACC (kalibr: R_IMUtoGYRO) 3e-3 rad per axis).
-void perturbIntrinsics(Rig* rig, std::uint64_t seed, double scale) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  for (auto& s : rig->inertial) {
-    // kalibr's lower-triangular matrices as the transposes of upper-triangular ones.
-    const bool kalibr = s.model == ImuModel::kKalibr;
-    const auto upper = [&](const Eigen::Matrix3d& T) {
-      return Eigen::Matrix3d(kalibr ? T.transpose() : T);
-    };
-    Eigen::Matrix3d Dw = upper(s.intrinsics.Tw).inverse(), Da = upper(s.intrinsics.Ta).inverse();
-    for (int c = 0; c < 3; ++c) {
-      for (int r = 0; r <= c; ++r) {
-        Dw(r, c) += scale * 3e-3 * n(rng);
-        Da(r, c) += scale * 3e-3 * n(rng);
-      }
-    }
-    Eigen::Matrix3d Tw = Dw.inverse(), Ta = Da.inverse();
-    Tw.triangularView<Eigen::StrictlyLower>().setZero();
-    Ta.triangularView<Eigen::StrictlyLower>().setZero();
-    s.intrinsics.Tw = upper(Tw);
-    if (s.type == InertialType::kGyroscope) continue;
-    s.intrinsics.Ta = upper(Ta);
-    for (int k = 0; k < 9; ++k) s.intrinsics.Tg(k / 3, k % 3) += scale * 1e-3 * n(rng);
-    (kalibr ? s.intrinsics.R_IMUtoGYRO : s.intrinsics.R_IMUtoACC) *=
-        lie::expSO3(scale * 3e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
-  }
 }
 
 struct IntrinsicsErrors {
@@ -108,19 +66,6 @@ IntrinsicsErrors intrinsicsErrors(const InertialSensor& truth, const InertialSen
                                                                        : est.std->R_IMUtoACC)});
   }
   return e;
-}
-
-EstimatorOptions intrinsicsOptions(IntrinsicsLinearization mode, double prior_scale) {
-  EstimatorOptions o = deterministic();
-  o.pixel_sigma_px = 0.5;
-  o.estimate_imu_intrinsics = true;
-  o.estimate_gravity_sensitivity = true;
-  o.imu_intrinsics_linearization = mode;
-  // Priors 4x the perturbations' sizes (at least the defaults).
-  o.imu_scale_misalignment_prior = std::max(0.01, 4.0 * prior_scale * 3e-3);
-  o.imu_gravity_sensitivity_prior = std::max(0.002, 4.0 * prior_scale * 1e-3);
-  o.imu_acc_rotation_prior_rad = std::max(0.01, 4.0 * prior_scale * 3e-3);
-  return o;
 }
 
 // Per inertial sensor, its intrinsics errors in the estimate.
@@ -362,73 +307,6 @@ TEST(Estimator, YawOnlyMotionHoldsWhatAnAuxiliaryRotationTradesWith) {
   EXPECT_EQ(std::find(imu1.begin(), imu1.end(), "dw22"), imu1.end());  // the scale about y
 }
 
-// Issue 22: yaw-only motion with every IMU's intrinsics and the cameras' and auxiliary sensors'
-// extrinsics and time offsets free. The Table 3 check holds imu0's Dw columns for the rates that
-// stay near zero; they set the gyroscope's rotation axis, to which the hand-eye relation ties the
-// cameras' tilt. Marginalized as unknown (before), they took that tie along, the cameras' tilt
-// rested on the current window alone and drifted: seed 1 of `scripts/monte_carlo 2 --motion
-// yaw_only --imu-intrinsics` ended the cameras 1.4 deg off at up to 30 sigma. Marginalized within
-// the variance they keep, 0.08 deg there; here (20 s, seed 3, this file's truth) 0.70 deg at 1.0
-// sigma (as unknown: 1.47 deg at 8.1 sigma, time offsets 2.5 ms). Kept as consider parameters
-// (held_covariance.cpp, now): 0.155 deg at 0.27-0.38 sigma, time offsets 0.016 ms at most.
-// Bounds: 3 sigma per axis, and 1 deg (the guess is 2 deg per axis off).
-TEST(Estimator, YawOnlyMotionWithEveryQuantityFreeKeepsTheCamerasConsistent) {
-  SimRun run = simulate("sim_vi_rig", 20.0, 3, MotionKind::kYawOnly, false, withIntrinsics);
-  perturbIntrinsics(&run.guess, 3, 1.0);
-  const auto estimator =
-      runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
-  ASSERT_NE(estimator, nullptr);
-  const Rig estimate = estimator->calibration();
-  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
-    const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
-    std::printf("%s: rotation %.3f deg (largest error/sigma %.2f), time offset %.3f ms (%.2f)\n",
-                run.truth.cameras[c].name.c_str(), e.rotation_deg,
-                e.rotation_sigma_ratio.maxCoeff(), e.time_offset_ms, e.time_offset_sigma_ratio);
-    EXPECT_LT(e.rotation_sigma_ratio.maxCoeff(), 3.0) << run.truth.cameras[c].name;
-    EXPECT_LT(e.rotation_deg, 1.0) << run.truth.cameras[c].name;
-    EXPECT_LT(e.time_offset_sigma_ratio, 3.0) << run.truth.cameras[c].name;
-  }
-}
-
-
-// Every calibrated element's |error| / sigma: cameras' and aux sensors' extrinsics and time
-// offsets (per axis), inertial intrinsics (every element with a sigma).
-std::vector<double> sigmaRatios(const Rig& truth, const Rig& estimate) {
-  std::vector<double> out;
-  const auto add = [&](const Eigen::MatrixXd& err, const Eigen::MatrixXd& sd) {
-    for (int k = 0; k < err.size(); ++k) {
-      if (sd(k) > 0.0) out.push_back(std::abs(err(k)) / sd(k));
-    }
-  };
-  for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
-    const CameraErrors e = errors(truth.cameras[c], estimate.cameras[c]);
-    for (int k = 0; k < 3; ++k) {
-      out.push_back(e.rotation_sigma_ratio[k]);
-      out.push_back(e.translation_sigma_ratio[k]);
-    }
-    out.push_back(e.time_offset_sigma_ratio);
-  }
-  for (std::size_t i = 0; i < truth.inertial.size(); ++i) {
-    const InertialSensor &t = truth.inertial[i], &x = estimate.inertial[i];
-    if (i > 0) {
-      const CameraErrors e = inertialErrors(t, x);
-      for (int k = 0; k < 3; ++k) {
-        out.push_back(e.rotation_sigma_ratio[k]);
-        if (t.type != InertialType::kGyroscope) out.push_back(e.translation_sigma_ratio[k]);
-      }
-      out.push_back(e.time_offset_sigma_ratio);
-    }
-    if (!x.std) continue;
-    add(x.intrinsics.Tw - t.intrinsics.Tw, x.std->Tw);
-    add(x.intrinsics.Tg - t.intrinsics.Tg, x.std->Tg);
-    if (t.type == InertialType::kGyroscope) continue;
-    add(x.intrinsics.Ta - t.intrinsics.Ta, x.std->Ta);
-    add(lie::logSO3(t.intrinsics.R_IMUtoACC.transpose() * x.intrinsics.R_IMUtoACC),
-        x.std->R_IMUtoACC);
-  }
-  return out;
-}
-
 // A cheap MEMS gyroscope's gravity sensitivity (issue 22): the gyroscope imu2 with Table 4's
 // Tw and a Tg of up to 3e-4 rad/s per m/s^2, which its configuration does not know (zero).
 void withGyroscopeTg(Rig* rig) {
@@ -559,38 +437,6 @@ TEST(Estimator, AppliesAConfiguredGyroscopeGravitySensitivity) {
   EXPECT_LT(worst[0], 3.0);  // consistent
   EXPECT_GT(worst[1], 3.0);  // not
   EXPECT_GT(offset_ms[1], 5.0 * offset_ms[0]);
-}
-
-// Issue 22 item 2: yaw-only with everything free, the cameras' intrinsics too. Over the flat
-// board the focal lengths trade against the height, tied to the cameras' tilt and so to the held
-// gyroscope columns. Those marginalized within their kept variance every time (before): 4.2 /
-// 12.5 / 4.7 px off at 5.5-7.5 sigma here (60 s, seed 6). As consider parameters: 3.5 / 11.1 /
-// 4.1 px (a common 0.8% scale) at 0.7-1.1 sigma. Bound: 3 sigma, every calibrated element.
-TEST(Estimator, YawOnlyMotionWithCameraIntrinsicsFreeKeepsTheFocalLengthsConsistent) {
-  SimRun run = simulate("sim_vi_rig", 60.0, 6, MotionKind::kYawOnly, true, withIntrinsics);
-  perturbIntrinsics(&run.guess, 6, 1.0);
-  EstimatorOptions options = intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0);
-  options.estimate_intrinsics = true;
-  const auto estimator = runFrom(run.guess, run, options);
-  ASSERT_NE(estimator, nullptr);
-  // Per camera: the estimate next to the truth.
-  const std::vector<Camera> cameras = estimator->calibration().cameras;
-  for (std::size_t c = 0; c < cameras.size(); ++c) {
-    const Camera &est = cameras[c], &truth = run.truth.cameras[c];
-    ASSERT_TRUE(est.std.has_value());
-    const Eigen::Vector4d e = truth.intrinsics - est.intrinsics;
-    std::printf("%s: focal lengths %.2f %.2f px (%.2f %.2f sigma)\n", truth.name.c_str(), e[0],
-                e[1], std::abs(e[0]) / est.std->intrinsics[0],
-                std::abs(e[1]) / est.std->intrinsics[1]);
-    for (int i = 0; i < 4; ++i) {
-      EXPECT_LT(std::abs(e[i]), 3.0 * est.std->intrinsics[i]) << truth.name << " " << i;
-    }
-  }
-  // And every other calibrated element (extrinsics, time offsets, every IMU's intrinsics).
-  const std::vector<double> ratios = sigmaRatios(run.truth, estimator->calibration());
-  const double worst = *std::max_element(ratios.begin(), ratios.end());
-  std::printf("largest error/sigma of %zu elements: %.2f\n", ratios.size(), worst);
-  EXPECT_LT(worst, 3.0);
 }
 
 }  // namespace

@@ -1,0 +1,82 @@
+// Degenerate motion with every calibration quantity free (issue 22 item 2, report Sec. 5 and
+// Tables 2-3): what the motion cannot tell is held and said, and what it can stays inside its 3
+// sigma, the cameras' intrinsics estimated too.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "imu_intrinsics_test_util.h"
+
+namespace mvis {
+namespace {
+
+using namespace mvis::test;  // NOLINT(google-build-using-namespace): the shared test helpers
+
+// Issue 22: yaw-only motion with every IMU's intrinsics and the cameras' and auxiliary sensors'
+// extrinsics and time offsets free. The Table 3 check holds imu0's Dw columns for the rates that
+// stay near zero; they set the gyroscope's rotation axis, to which the hand-eye relation ties the
+// cameras' tilt. Marginalized as unknown (before), they took that tie along, the cameras' tilt
+// rested on the current window alone and drifted: seed 1 of `scripts/monte_carlo 2 --motion
+// yaw_only --imu-intrinsics` ended the cameras 1.4 deg off at up to 30 sigma. Marginalized within
+// the variance they keep, 0.08 deg there; here (20 s, seed 3, this file's truth) 0.70 deg at 1.0
+// sigma (as unknown: 1.47 deg at 8.1 sigma, time offsets 2.5 ms). Kept as consider parameters
+// (held_covariance.cpp): 0.155 deg at 0.27-0.38 sigma, time offsets 0.016 ms at most; with the
+// later changes of 2026-11-27 (measured at 22b927b) 0.32 deg at 0.27-0.30 sigma.
+// Bounds: 3 sigma per axis, and 1 deg (the guess is 2 deg per axis off).
+TEST(Estimator, YawOnlyMotionWithEveryQuantityFreeKeepsTheCamerasConsistent) {
+  SimRun run = simulate("sim_vi_rig", 20.0, 3, MotionKind::kYawOnly, false, withIntrinsics);
+  perturbIntrinsics(&run.guess, 3, 1.0);
+  const auto estimator =
+      runFrom(run.guess, run, intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0));
+  ASSERT_NE(estimator, nullptr);
+  const Rig estimate = estimator->calibration();
+  for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
+    const CameraErrors e = errors(run.truth.cameras[c], estimate.cameras[c]);
+    std::printf("%s: rotation %.3f deg (largest error/sigma %.2f), time offset %.3f ms (%.2f)\n",
+                run.truth.cameras[c].name.c_str(), e.rotation_deg,
+                e.rotation_sigma_ratio.maxCoeff(), e.time_offset_ms, e.time_offset_sigma_ratio);
+    EXPECT_LT(e.rotation_sigma_ratio.maxCoeff(), 3.0) << run.truth.cameras[c].name;
+    EXPECT_LT(e.rotation_deg, 1.0) << run.truth.cameras[c].name;
+    EXPECT_LT(e.time_offset_sigma_ratio, 3.0) << run.truth.cameras[c].name;
+  }
+}
+
+// Issue 22 item 2: yaw-only with everything free, the cameras' intrinsics too. Over the flat
+// board the focal lengths trade against the height, tied to the cameras' tilt and so to the held
+// gyroscope columns. Those marginalized within their kept variance every time (before): 4.2 /
+// 12.5 / 4.7 px off at 5.5-7.5 sigma here (60 s, seed 6). As consider parameters: 3.5 / 11.1 /
+// 4.1 px (a common 0.8% scale) at 0.7-1.1 sigma. Bound: 3 sigma, every calibrated element.
+TEST(Estimator, YawOnlyMotionWithCameraIntrinsicsFreeKeepsTheFocalLengthsConsistent) {
+  SimRun run = simulate("sim_vi_rig", 60.0, 6, MotionKind::kYawOnly, true, withIntrinsics);
+  perturbIntrinsics(&run.guess, 6, 1.0);
+  EstimatorOptions options = intrinsicsOptions(IntrinsicsLinearization::kReintegrate, 1.0);
+  options.estimate_intrinsics = true;
+  const auto estimator = runFrom(run.guess, run, options);
+  ASSERT_NE(estimator, nullptr);
+  // Per camera: the estimate next to the truth.
+  const std::vector<Camera> cameras = estimator->calibration().cameras;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const Camera &est = cameras[c], &truth = run.truth.cameras[c];
+    ASSERT_TRUE(est.std.has_value());
+    const Eigen::Vector4d e = truth.intrinsics - est.intrinsics;
+    std::printf("%s: focal lengths %.2f %.2f px (%.2f %.2f sigma)\n", truth.name.c_str(), e[0],
+                e[1], std::abs(e[0]) / est.std->intrinsics[0],
+                std::abs(e[1]) / est.std->intrinsics[1]);
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_LT(std::abs(e[i]), 3.0 * est.std->intrinsics[i]) << truth.name << " " << i;
+    }
+  }
+  // And every other calibrated element (extrinsics, time offsets, every IMU's intrinsics).
+  const std::vector<double> ratios = sigmaRatios(run.truth, estimator->calibration());
+  const double worst = *std::max_element(ratios.begin(), ratios.end());
+  std::printf("largest error/sigma of %zu elements: %.2f (element %ld)\n", ratios.size(), worst,
+              static_cast<long>(std::max_element(ratios.begin(), ratios.end()) - ratios.begin()));
+  EXPECT_LT(worst, 3.0);
+}
+
+}  // namespace
+}  // namespace mvis
