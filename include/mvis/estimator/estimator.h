@@ -325,7 +325,8 @@ struct UnobservableCalibration {
   // quantity "shared direction" (found in the window's information, several sensors' quantities
   // moving together without changing any measurement; sensor is then their names joined by
   // '+'): each sensor's part in words ("cam0 rotation about (1.00, 0.02, 0.00)", "imu0
-  // intrinsics (theta_x)"), and what motion would tell it.
+  // intrinsics (theta_x)"), and what motion would tell it. Also for intrinsics where the
+  // generic words would mislead (what motion would tell them).
   std::vector<std::string> shared;
   std::string advice;
   // In plain words, e.g. "imu1 translation along (0.00, 0.00, 1.00) in imu0: rotate about

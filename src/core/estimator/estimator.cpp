@@ -263,7 +263,9 @@ std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
 void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre) {
   State* a = &window.state(k);
   State* b = &window.state(k + 1);
-  monitor.addReadingMoments(0, b->t, pre->samples());
+  monitor.addReadingMoments(0, b->t, pre->samples(), Eigen::Quaterniond(poseRotation(a->pose)),
+                            Eigen::Vector3d(calibration.gravity()),
+                            a->biasGyro());
   double* g = calibration.gravity();
   double* block = intrinsics.values(0);
   if (block == nullptr) {
@@ -282,6 +284,7 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   const State& last = window.newest();
   const Eigen::Vector3d bg = last.biasGyro(), ba = last.biasAccel();
   const TimeNs last_t = last.t;
+  const Eigen::Quaterniond R_last(poseRotation(last.pose));
   auto pre = imu.preintegrate(last_t, t, bg, ba);  // raw with intrinsics: the factor corrects
   auto s = makeState(t);
   // The state as it stays until the next solve (solve_every): from corrected readings, or in a
@@ -300,7 +303,8 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   window.push(std::move(s));
   addImuFactor(window.size() - 2, pre);
   frames.add(frame, window.size() - 1, initialized);
-  monitor.addMotion(last_t, t, imu.between(last_t, t), bg);
+  monitor.addMotion(last_t, t, imu.between(last_t, t), bg, R_last,
+                    Eigen::Vector3d(calibration.gravity()));
 }
 
 void Estimator::Impl::propagate(const ImuMeasurement& raw) {

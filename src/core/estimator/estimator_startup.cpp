@@ -153,7 +153,9 @@ void Estimator::Impl::initialize() {
   for (std::size_t i = 0; i + 1 < n; ++i) {
     addImuFactor(i, pre[i]);
     const TimeNs a = window.state(i).t, b = window.state(i + 1).t;
-    monitor.addMotion(a, b, imu.between(a, b), Eigen::Vector3d::Zero());
+    monitor.addMotion(a, b, imu.between(a, b), Eigen::Vector3d::Zero(),
+                      Eigen::Quaterniond(poseRotation(window.state(i).pose)),
+                      Eigen::Vector3d(calibration.gravity()));
   }
   // Without a board the states the batch is cut to the window below take the carried tags'
   // corners only: the others' would enter the prior through them and tie every tag of the batch

@@ -23,6 +23,10 @@ std::string UnobservableCalibration::text() const {
     s << " (";
     for (std::size_t k = 0; k < elements.size(); ++k) s << (k ? ", " : "") << elements[k];
     s << ')';
+    if (!advice.empty()) {
+      s << ": " << advice;
+      return s.str();
+    }
     bool rate = false, force = false;
     for (const auto& e : elements) {
       (e.rfind("dw", 0) == 0 || e.rfind("theta_g", 0) == 0 ? rate : force) = true;

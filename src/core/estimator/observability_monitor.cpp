@@ -62,7 +62,9 @@ void ObservabilityMonitor::clear() {
 
 void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
                                      const std::vector<ImuMeasurement>& readings,
-                                     const Eigen::Vector3d& bias_gyro) {
+                                     const Eigen::Vector3d& bias_gyro,
+                                     const Eigen::Quaterniond& R_a,
+                                     const Eigen::Vector3d& gravity) {
   // Chunks of about 25 ms: their mean rates, and angular accelerations between them. The
   // gyroscope's noise makes each alpha noisy (variance s2 per axis), which would add 2 s2 I to
   // hat(alpha)^T hat(alpha) on average: it is taken out again, or noise alone would look like
@@ -117,16 +119,53 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
     info.time_offset += dt * e;
     info.time_offset_var += dt * dt * (6.0 * s2 * s2 + 4.0 * s2 * std::max(e, 0.0));
   }
+  if (readings.size() > 1) {
+    info.span = toSeconds(readings.back().stamp_ns - readings.front().stamp_ns);
+  }
+  if (gravity.squaredNorm() > 0.0) {
+    Eigen::Quaterniond R = R_a;
+    for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
+      const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
+      if (!(dt > 0.0)) continue;
+      const Eigen::Vector3d g = R.conjugate() * gravity;
+      info.T += dt;
+      info.g += g * dt;
+      info.gg += g * g.transpose() * dt;
+      R = (R * lie::expQuat((readings[k].gyro - bias_gyro) * dt)).normalized();
+    }
+  }
   motion_.push_back(info);
   const TimeNs horizon = fromSeconds(options_.observability_horizon_s);
   while (!motion_.empty() && motion_.front().t < b - horizon) motion_.pop_front();
 }
 
+bool ObservabilityMonitor::parallelViews() const {
+  double T = 0.0, span = 0.0;
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d gg = Eigen::Matrix3d::Zero();
+  for (const auto& m : motion_) {
+    T += m.T;
+    span += m.span;
+    g += m.g;
+    gg += m.gg;
+  }
+  // Only over 2 s or more, most of the horizon's motion (not while the first states are few).
+  if (T < 2.0 || T < 0.8 * span || !(g.norm() > 0.0)) return false;
+  const Eigen::Matrix3d spread = (gg - g * g.transpose() / T) / T;
+  const double tilt = std::sqrt(std::max(
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues().maxCoeff(), 0.0));
+  return tilt < std::sin(5.0 * M_PI / 180.0) * g.norm() / T;
+}
+
 void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
-                                             const std::vector<ImuMeasurement>& readings) {
+                                             const std::vector<ImuMeasurement>& readings,
+                                             const Eigen::Quaterniond& R_start,
+                                             const Eigen::Vector3d& gravity,
+                                             const Eigen::Vector3d& bias_gyro) {
   if (!intrinsics_.block(i) || readings.size() < 2) return;
   ReadingMoments m;
   m.t = t;
+  Eigen::Quaterniond R = R_start;
   for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
     const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
     if (!(dt > 0.0)) continue;
@@ -139,6 +178,14 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
     m.ww += w * w.transpose() * dt;
     m.aa += a * a.transpose() * dt;
     m.wa += w * a.transpose() * dt;
+    if (i == 0) {
+      const Eigen::Vector3d g = R.conjugate() * gravity;
+      m.g += g * dt;
+      m.gg += g * g.transpose() * dt;
+      m.wg += w * g.transpose() * dt;
+      m.ag += a * g.transpose() * dt;
+      R = (R * lie::expQuat((w - bias_gyro) * dt)).normalized();
+    }
   }
   auto& q = moments_[i];
   q.push_back(m);
@@ -178,6 +225,7 @@ void ObservabilityMonitor::check(ceres::Problem* problem) {
     for (int c = 0; c < weak.directions.cols(); ++c) {
       u.information_ratio.push_back(std::max(weak.gains[c], 0.0));
       if (!q.symbol.empty()) {
+        u.advice = q.advice;
         u.elements.push_back(intrinsicsElementName(q.elements, weak.directions.col(c), q.kalibr));
         continue;
       }

@@ -39,12 +39,21 @@ class ObservabilityMonitor {
                        const CalibrationBlocks& calibration, const ImuIntrinsicsBlocks& intrinsics);
 
   // Adds the base motion between window states at a and b (its readings over [a, b] and the gyro
-  // bias there).
+  // bias there; with `R_a` the base IMU's orientation at a (R_W_I) and `gravity` the gravity
+  // vector, also how gravity turns in its frame (parallelViews); a zero gravity leaves it out).
   void addMotion(TimeNs a, TimeNs b, const std::vector<ImuMeasurement>& readings,
-                 const Eigen::Vector3d& bias_gyro);
+                 const Eigen::Vector3d& bias_gyro,
+                 const Eigen::Quaterniond& R_a = Eigen::Quaterniond::Identity(),
+                 const Eigen::Vector3d& gravity = Eigen::Vector3d::Zero());
   // Adds inertial sensor i's readings between window states (the later at t), for its
-  // intrinsics (ignored unless they are estimated).
-  void addReadingMoments(std::size_t i, TimeNs t, const std::vector<ImuMeasurement>& readings);
+  // intrinsics (ignored unless they are estimated). For the base IMU also gravity in its frame
+  // along them, g_I = R^T g, from `R_start` (its orientation at the first reading, R = R_W_I) and
+  // the rates less `bias_gyro`: what tells a scale of the kinematic acceleration from the
+  // accelerometer's own (intrinsicsQuantities).
+  void addReadingMoments(std::size_t i, TimeNs t, const std::vector<ImuMeasurement>& readings,
+                         const Eigen::Quaterniond& R_start = Eigen::Quaterniond::Identity(),
+                         const Eigen::Vector3d& gravity = Eigen::Vector3d::Zero(),
+                         const Eigen::Vector3d& bias_gyro = Eigen::Vector3d::Zero());
   // Finds what the recent motion leaves unobservable, holds it and releases what it no longer
   // does.
   void check(ceres::Problem* problem);
@@ -114,7 +123,18 @@ class ObservabilityMonitor {
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
     double time_offset = 0.0;      // int |alpha|^2 dt, less the noise's share (may be < 0)
     double time_offset_var = 0.0;  // that estimate's variance from the gyroscope's noise
+    // Over the readings, gravity in the base IMU's frame g_I = R^T g: T = int dt, int g dt,
+    // int g g^T dt (all zero without the orientation).
+    double T = 0.0, span = 0.0;  // span: the readings' whole time, with or without it
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d gg = Eigen::Matrix3d::Zero();
   };
+  // Whether the recent views of the board are parallel (Sturm and Maybank 1999): gravity's
+  // direction in the base IMU turned by less than 5 deg (RMS about its mean, widest axis) over
+  // the horizon (hand-held motion: 8-11 deg per 5 s; translation-only and yaw-only over a flat
+  // board: 0). False without the orientations over at least 2 s and most of the horizon's
+  // motion (right after the start the few states in it looked parallel on hand-held motion).
+  bool parallelViews() const;
   // Time-weighted moments of one sensor's readings between two window states.
   struct ReadingMoments {
     TimeNs t = 0;    // the later state's time
@@ -123,6 +143,11 @@ class ObservabilityMonitor {
     Eigen::Vector3d w = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();    // int x dt
     Eigen::Matrix3d ww = Eigen::Matrix3d::Zero(), aa = Eigen::Matrix3d::Zero();  // int x x^T dt
     Eigen::Matrix3d wa = Eigen::Matrix3d::Zero();                                // int w a^T dt
+    // Gravity in the sensor's frame g_I (base IMU only, else zero): int g dt, int g g^T dt,
+    // int w g^T dt, int a g^T dt.
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d gg = Eigen::Matrix3d::Zero(), wg = Eigen::Matrix3d::Zero(),
+                    ag = Eigen::Matrix3d::Zero();
   };
   // A block held along its unobservable directions: its own manifold, the subspace manifold in
   // use (null: held whole, constant), the held directions and the variance each keeps.
@@ -147,7 +172,8 @@ class ObservabilityMonitor {
     std::string symbol = {};
     std::vector<int> rows = {};
     std::vector<int> elements = {};
-    bool kalibr = false;  // the block's parametrization (imu_reintegration.h)
+    bool kalibr = false;      // the block's parametrization (imu_reintegration.h)
+    std::string advice = {};  // what motion would tell it, where the generic words are wrong
   };
 
   // The window's information about every estimated calibration block jointly
