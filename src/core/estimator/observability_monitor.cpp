@@ -13,6 +13,26 @@
 namespace mvis {
 
 namespace estimator_internal {
+namespace {
+
+// Gravity in the base IMU's frame, g_I = R^T gravity, at each reading that has a later one
+// (others: zero), R from R_start turned by the rates less bias_gyro over the readings' intervals.
+std::vector<Eigen::Vector3d> gravityInSensor(const std::vector<ImuMeasurement>& readings,
+                                             const Eigen::Quaterniond& R_start,
+                                             const Eigen::Vector3d& gravity,
+                                             const Eigen::Vector3d& bias_gyro) {
+  std::vector<Eigen::Vector3d> out(readings.size(), Eigen::Vector3d::Zero());
+  Eigen::Quaterniond R = R_start;
+  for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
+    const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
+    if (!(dt > 0.0)) continue;
+    out[k] = R.conjugate() * gravity;
+    R = (R * lie::expQuat((readings[k].gyro - bias_gyro) * dt)).normalized();
+  }
+  return out;
+}
+
+}  // namespace
 
 std::string intrinsicsElementName(const std::vector<int>& elements,
                                   const Eigen::VectorXd& direction, bool kalibr) {
@@ -123,15 +143,13 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
     info.span = toSeconds(readings.back().stamp_ns - readings.front().stamp_ns);
   }
   if (gravity.squaredNorm() > 0.0) {
-    Eigen::Quaterniond R = R_a;
+    const std::vector<Eigen::Vector3d> g = gravityInSensor(readings, R_a, gravity, bias_gyro);
     for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
       const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
       if (!(dt > 0.0)) continue;
-      const Eigen::Vector3d g = R.conjugate() * gravity;
       info.T += dt;
-      info.g += g * dt;
-      info.gg += g * g.transpose() * dt;
-      R = (R * lie::expQuat((readings[k].gyro - bias_gyro) * dt)).normalized();
+      info.g += g[k] * dt;
+      info.gg += g[k] * g[k].transpose() * dt;
     }
   }
   motion_.push_back(info);
@@ -165,7 +183,9 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
   if (!intrinsics_.block(i) || readings.size() < 2) return;
   ReadingMoments m;
   m.t = t;
-  Eigen::Quaterniond R = R_start;
+  const std::vector<Eigen::Vector3d> gravities =
+      i == 0 ? gravityInSensor(readings, R_start, gravity, bias_gyro)
+             : std::vector<Eigen::Vector3d>();
   for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
     const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
     if (!(dt > 0.0)) continue;
@@ -179,12 +199,11 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
     m.aa += a * a.transpose() * dt;
     m.wa += w * a.transpose() * dt;
     if (i == 0) {
-      const Eigen::Vector3d g = R.conjugate() * gravity;
+      const Eigen::Vector3d& g = gravities[k];
       m.g += g * dt;
       m.gg += g * g.transpose() * dt;
       m.wg += w * g.transpose() * dt;
       m.ag += a * g.transpose() * dt;
-      R = (R * lie::expQuat((w - bias_gyro) * dt)).normalized();
     }
   }
   auto& q = moments_[i];
