@@ -142,7 +142,9 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
   if (readings.size() > 1) {
     info.span = toSeconds(readings.back().stamp_ns - readings.front().stamp_ns);
   }
-  if (gravity.squaredNorm() > 0.0) {
+  // Only the base accelerometer's check with the cameras' intrinsics estimated asks for it.
+  if (gravity.squaredNorm() > 0.0 && intrinsics_.block(0) != nullptr &&
+      options_.estimate_intrinsics) {
     const std::vector<Eigen::Vector3d> g = gravityInSensor(readings, R_a, gravity, bias_gyro);
     for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
       const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);

@@ -40,7 +40,9 @@ class ObservabilityMonitor {
 
   // Adds the base motion between window states at a and b (its readings over [a, b] and the gyro
   // bias there; with `R_a` the base IMU's orientation at a (R_W_I) and `gravity` the gravity
-  // vector, also how gravity turns in its frame (parallelViews); a zero gravity leaves it out).
+  // vector, also how gravity turns in its frame (parallelViews; kept only while the base IMU's
+  // and the cameras' intrinsics are estimated, which is when it is asked; a zero gravity leaves
+  // it out).
   void addMotion(TimeNs a, TimeNs b, const std::vector<ImuMeasurement>& readings,
                  const Eigen::Vector3d& bias_gyro,
                  const Eigen::Quaterniond& R_a = Eigen::Quaterniond::Identity(),
