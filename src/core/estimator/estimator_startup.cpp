@@ -280,8 +280,10 @@ bool Estimator::Impl::recentreUnobservedShift(const std::vector<SE3>& configured
   // wherever its linearization took it (12-15 cm counting every corner on a yaw-only start, 3 cm
   // at the default), and the window would keep it there. It goes back to the configured cameras'
   // mean; where they sit relative to each other, which the board does show, stays as solved.
+  // The check holds the first camera's (and those whose distance trades with their focal
+  // lengths), the others follow it: the shift is every estimated camera's.
   Eigen::MatrixXd A;  // the held directions of the cameras' positions in {I} (orthonormal)
-  std::vector<std::size_t> held;
+  bool any = false;
   const auto& uninformative = monitor.uninformative();
   for (std::size_t c = 0; c < calibration.cameras(); ++c) {
     const double* extrinsic = calibration.camera(c).extrinsic;
@@ -292,17 +294,21 @@ bool Estimator::Impl::recentreUnobservedShift(const std::vector<SE3>& configured
         poseRotation(extrinsic).toRotationMatrix().transpose() * u->second.bottomRows<3>();
     if (D.cols() == 0 || D.colwise().norm().minCoeff() < 0.99) continue;  // not translations
     if (A.size() == 0) A = D;
-    held.push_back(c);
+    any = true;
   }
-  if (held.empty()) return false;
+  if (!any) return false;
+  std::vector<std::size_t> moved;  // every estimated camera
+  for (std::size_t c = 0; c < calibration.cameras(); ++c) {
+    if (monitor.estimated(*window.problem(), calibration.camera(c).extrinsic)) moved.push_back(c);
+  }
   Eigen::VectorXd shift = Eigen::VectorXd::Zero(A.cols());
-  for (std::size_t c : held) {
+  for (std::size_t c : moved) {
     const SE3 T = poseToSE3(calibration.camera(c).extrinsic);
     const Eigen::Vector3d p_I_C = -(T.q.conjugate() * T.p);
     const Eigen::Vector3d p_I_C0 = -(configured[c].q.conjugate() * configured[c].p);
-    shift += A.transpose() * (p_I_C - p_I_C0) / static_cast<double>(held.size());
+    shift += A.transpose() * (p_I_C - p_I_C0) / static_cast<double>(moved.size());
   }
-  for (std::size_t c : held) {
+  for (std::size_t c : moved) {
     double* e = calibration.camera(c).extrinsic;
     Eigen::Map<Eigen::Vector3d>(e + 4) += poseRotation(e) * (A * shift);
   }

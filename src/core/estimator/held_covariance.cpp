@@ -8,6 +8,14 @@
 // marginalizations the hold lasts; that needs the prior to keep what every leaving measurement
 // told along u and across it and the rest, so those directions are marginalized as kept blocks
 // (heldDirections leaves them out).
+//
+// The gauge (anchors()): with the first camera's translation held along D (tangent coordinates a
+// of variance V) and other cameras following it, nothing the data say changes when every sensor
+// moves in {I} by d = -R_C0_I^T D_p a and imu0 by -R_W_I d in {W} (every camera's pose in {W}
+// stays). The solves and the prior are conditioned on a; its error moves a follower's p_X_I by
+// -R_X_I d and every state's position by -R_W_I d, exactly, so the covariances add G V G^T with
+// that G (gaugeMap) instead of releasing a: released, the window's information along the shift
+// is only what the linearization points make up, and took the position NEES to 6-47 for 3.
 #include <algorithm>
 
 #include "mvis/estimator/observability.h"
@@ -16,8 +24,65 @@
 
 namespace mvis::estimator_internal {
 
+void ObservabilityMonitor::setHolds(ceres::Problem* problem, bool held, bool considered_only,
+                                    bool keep_anchor) {
+  for (const auto& [const_block, hold] : holds_) {
+    if (considered_only && !considered(const_block)) continue;
+    if (keep_anchor && anchors(const_block)) continue;
+    double* block = const_cast<double*>(const_block);
+    if (hold.subspace) {
+      problem->SetManifold(block, held ? hold.subspace.get() : hold.base);
+    } else if (held) {
+      problem->SetParameterBlockConstant(block);
+    } else {
+      problem->SetParameterBlockVariable(block);
+    }
+  }
+}
+
 bool ObservabilityMonitor::considered(const double* block) const {
   return consider_ && holds_.count(block) > 0 && intrinsics_.isBlock(block);
+}
+
+void ObservabilityMonitor::findFollowers(const ceres::Problem& problem) {
+  followers_.clear();
+  if (!consider_ || calibration_.cameras() < 2) return;
+  const auto h = holds_.find(calibration_.camera(0).extrinsic);
+  // Only a held translation (a held rotation is not a shift of positions).
+  if (h == holds_.end() || h->second.directions.cols() == 0 ||
+      h->second.directions.bottomRows<3>().colwise().norm().minCoeff() < 0.99) {
+    return;
+  }
+  for (std::size_t c = 1; c < calibration_.cameras(); ++c) {
+    const double* e = calibration_.camera(c).extrinsic;
+    if (holds_.count(e) == 0 && !problem.IsParameterBlockConstant(e)) followers_.push_back(e);
+  }
+}
+
+bool ObservabilityMonitor::anchors(const double* block) const {
+  return !followers_.empty() && block == calibration_.camera(0).extrinsic;
+}
+
+Eigen::VectorXd ObservabilityMonitor::gaugeVariance() const {
+  if (followers_.empty()) return {};
+  return holds_.at(calibration_.camera(0).extrinsic).variance;
+}
+
+Eigen::MatrixXd ObservabilityMonitor::gaugeMap(const double* block, bool pose) const {
+  if (followers_.empty()) return {};
+  const double* anchor = calibration_.camera(0).extrinsic;
+  const Eigen::MatrixXd& D = holds_.at(anchor).directions;
+  if (block == anchor) return D;
+  // Extrinsics are T_X_I ([q_X_I, p_X_I], the translation's tangent additive): the anchor's held
+  // coordinates a move its p_X_I by D_p a, i.e. every sensor's position in {I} by
+  // d = -R_X0_I^T D_p a; a follower's p_X_I by -R_X_I d, imu0's position in {W} by -R_W_I d.
+  const Eigen::MatrixXd d =
+      -(poseRotation(anchor).toRotationMatrix().transpose() * D.bottomRows<3>());
+  const bool follows = std::find(followers_.begin(), followers_.end(), block) != followers_.end();
+  if (!pose && !follows) return {};
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(6, D.cols());
+  G.bottomRows<3>() = -(poseRotation(block).toRotationMatrix() * d);
+  return G;
 }
 
 bool ObservabilityMonitor::considering() const {
@@ -76,9 +141,11 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
   std::vector<std::pair<std::uint64_t, const double*>> order;
   for (const auto& [block, hold] : holds_) order.emplace_back(hold.sequence, block);
   std::sort(order.begin(), order.end());
-  liftHolds(problem);
+  // The gauge's anchor stays held: the pose given it, and G V G^T below.
+  liftHolds(problem, false, true);
   std::vector<const double*> considered_blocks;
   for (const auto& [sequence, const_block] : order) {
+    if (anchors(const_block)) continue;
     if (considered(const_block)) {
       considered_blocks.push_back(const_block);
       continue;
@@ -119,8 +186,13 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
     consideredColumns(at, static_cast<int>(C.rows()), &U, &v);
     (*out)[k] = consideredCovariance(C, U, v).topLeftCorner<6, 6>();
   }
+  const Eigen::VectorXd V = gaugeVariance();
+  for (std::size_t k = 0; ok && V.size() > 0 && k < poses.size(); ++k) {
+    const Eigen::MatrixXd G = gaugeMap(poses[k], true);
+    (*out)[k] += G * V.asDiagonal() * G.transpose();
+  }
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
-  restoreHolds(problem);
+  restoreHolds(problem, false, true);
   return ok ? Status::Ok() : Status::Error("pose covariance with the held directions failed");
 }
 

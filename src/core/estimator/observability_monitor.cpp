@@ -73,6 +73,7 @@ void ObservabilityMonitor::clear() {
   motion_.clear();
   for (auto& m : moments_) m.clear();
   holds_.clear();
+  followers_.clear();
   window_parts_.clear();
   window_found_.clear();
   window_blocks_.clear();
@@ -142,16 +143,19 @@ void ObservabilityMonitor::addMotion(TimeNs a, TimeNs b,
   if (readings.size() > 1) {
     info.span = toSeconds(readings.back().stamp_ns - readings.front().stamp_ns);
   }
-  // Only the base accelerometer's check with the cameras' intrinsics estimated asks for it.
-  if (gravity.squaredNorm() > 0.0 && intrinsics_.block(0) != nullptr &&
-      options_.estimate_intrinsics) {
+  // Asked only while the cameras' intrinsics are estimated: by the base accelerometer's check
+  // (parallelViews) and by the cameras' translations' (accelerationAlong).
+  if (gravity.squaredNorm() > 0.0 && options_.estimate_intrinsics) {
     const std::vector<Eigen::Vector3d> g = gravityInSensor(readings, R_a, gravity, bias_gyro);
     for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
       const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
       if (!(dt > 0.0)) continue;
+      const Eigen::Vector3d kin = readings[k].accel + g[k];
       info.T += dt;
       info.g += g[k] * dt;
       info.gg += g[k] * g[k].transpose() * dt;
+      info.k += kin * dt;
+      info.kk += kin * kin.transpose() * dt;
     }
   }
   motion_.push_back(info);
@@ -175,6 +179,18 @@ bool ObservabilityMonitor::parallelViews() const {
   const double tilt = std::sqrt(std::max(
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues().maxCoeff(), 0.0));
   return tilt < std::sin(5.0 * M_PI / 180.0) * g.norm() / T;
+}
+
+double ObservabilityMonitor::accelerationAlong(const Eigen::Vector3d& n) const {
+  double T = 0.0, span = 0.0, k = 0.0, kk = 0.0;
+  for (const auto& m : motion_) {
+    T += m.T;
+    span += m.span;
+    k += n.dot(m.k);
+    kk += n.dot(m.kk * n);
+  }
+  if (T < 2.0 || T < 0.8 * span) return -1.0;  // as parallelViews
+  return std::sqrt(std::max(kk / T - (k / T) * (k / T), 0.0));
 }
 
 void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
@@ -306,8 +322,36 @@ void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
     quantities.push_back({name, "translation", block, 3, 3, prior.translation, R_X_I.transpose(),
                           R_X_I * sum.translation * R_X_I.transpose() / (density * density)});
   };
+  // The cameras' positions relative to each other are seen (each one's poses on the board, the
+  // trajectory between them); what the motion must tell is where they sit on the base IMU
+  // together. With the cameras' intrinsics estimated only the first camera's translation is
+  // checked and held, and the others follow it through the images (the gauge: anchors(),
+  // held_covariance.cpp, which carries its held uncertainty into theirs and the poses'). Each
+  // held on its own, they were held where the first batch left them relative to each other,
+  // with the intrinsics at their guesses, which the intrinsics then absorbed: translation-only
+  // motion, noise-free data from the Monte Carlo's guess, ended the focal lengths 2.6-5.4 px and
+  // cam1's centre 3.7 px off at 4-33 sigma (0.07 px and 0.001 px with the first held alone);
+  // with noise, 6 x 60 s with every quantity free, focal lengths 2.7-5.6 px off at RMS
+  // error/sigma 5.6-6.4 (now 0.55-1.23 px, 0.27-0.29). With the intrinsics known each camera is
+  // held on its own as before (the first batch places them right).
+  // But with a camera's intrinsics estimated, its distance to the board may come only with its
+  // focal lengths (f / Z, parallel views) unless the rig moves along its viewing axis, which the
+  // accelerometer measures: until it does (0.1 m/s^2 RMS over the horizon) the camera is checked
+  // on its own (yaw-only with every quantity free, in a variant of 2026-11-27 that let it follow
+  // the first camera: cam2's focal lengths ended 10 px off, RMS error/sigma 2.7 over 6 runs). The
+  // batch (no consider parameters) checks each one as before, from the online result, where their
+  // relative positions are the images'. A camera whose extrinsic is known (held by the options)
+  // places the others: none is checked but for that trade.
+  bool placed = false;
+  for (std::size_t c = 0; c < calibration_.cameras(); ++c) {
+    placed = placed || !estimated(problem, calibration_.camera(c).extrinsic);
+  }
   for (std::size_t c = 0; c < calibration_.cameras(); ++c) {
     const CameraBlocks& cb = calibration_.camera(c);
+    const Eigen::Vector3d axis = poseRotation(cb.extrinsic).conjugate() * Eigen::Vector3d::UnitZ();
+    const bool alone = !consider_ || !estimated(problem, cb.intrinsics) || (c == 0 && !placed) ||
+                       accelerationAlong(axis) < 0.1;
+    if (!alone) continue;
     translation(rig_.cameras[c].name, cb.extrinsic, cb.prior,
                 rig_.inertial[0].noise.accelerometer_noise_density);
   }
@@ -411,6 +455,7 @@ void ObservabilityMonitor::applyHolds(ceres::Problem* problem) {
     hold.sequence = existing != holds_.end() ? existing->second.sequence : holds_made_++;
     holds_[block] = std::move(hold);  // the replaced manifold is no longer in use
   }
+  findFollowers(*problem);
 }
 
 Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& problem,
@@ -423,7 +468,11 @@ Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& pr
     C.setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   const auto h = holds_.find(block);
-  if (h == holds_.end() || !h->second.subspace) return C;
+  if (h == holds_.end() || !h->second.subspace) {
+    const Eigen::MatrixXd G = gaugeMap(block);
+    if (G.size() > 0) C += G * gaugeVariance().asDiagonal() * G.transpose();
+    return C;
+  }
   const Hold& hold = h->second;
   const Eigen::MatrixXd& B = hold.subspace->basis();
   return B * C * B.transpose() +
@@ -439,18 +488,23 @@ Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
   // Blocks partly held have the subspace's tangent in C: map each to its own tangent (B) and
   // add the variance its held directions kept, as tangentCovariance does for one.
   std::vector<Eigen::MatrixXd> maps;
-  std::vector<Eigen::MatrixXd> kept;
+  std::vector<Eigen::MatrixXd> kept, gauge;
   int rows = 0, cols = 0;
   for (const double* block : blocks) {
     const int t = problem.ParameterBlockTangentSize(block);
     const auto h = holds_.find(block);
+    gauge.push_back(gaugeMap(block));
     if (h == holds_.end() || !h->second.subspace || (considered_lifted && considered(block))) {
       maps.push_back(Eigen::MatrixXd::Identity(t, t));
       kept.push_back(Eigen::MatrixXd::Zero(t, t));
     } else {
       const Hold& hold = h->second;
       maps.push_back(hold.subspace->basis());
-      kept.push_back(hold.directions * hold.variance.asDiagonal() * hold.directions.transpose());
+      // The anchor's kept variance comes with the gauge's, below.
+      const auto n = hold.directions.rows();
+      kept.push_back(anchors(block) ? Eigen::MatrixXd::Zero(n, n)
+                                    : Eigen::MatrixXd(hold.directions * hold.variance.asDiagonal() *
+                                                      hold.directions.transpose()));
     }
     if (offsets != nullptr) (*offsets)[block] = {rows, static_cast<int>(maps.back().rows())};
     rows += static_cast<int>(maps.back().rows());
@@ -464,6 +518,16 @@ Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
     K.block(r, r, kept[i].rows(), kept[i].cols()) = kept[i];
     r += static_cast<int>(maps[i].rows());
     c += static_cast<int>(maps[i].cols());
+  }
+  const Eigen::VectorXd v = gaugeVariance();
+  if (v.size() > 0) {
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(rows, v.size());
+    r = 0;
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+      if (gauge[i].size() > 0) G.middleRows(r, gauge[i].rows()) = gauge[i];
+      r += static_cast<int>(maps[i].rows());
+    }
+    K += G * v.asDiagonal() * G.transpose();
   }
   return B * C * B.transpose() + K;
 }
@@ -487,6 +551,13 @@ std::map<const double*, Eigen::MatrixXd> ObservabilityMonitor::heldDirections() 
   // the current window; marginalized within their kept variance every time (2026-11-26/27), that
   // variance counted once per marginalization and the focal lengths, tied to them on yaw-only
   // motion, ended 2.6x surer than the batch over the whole recording (RMS error/sigma 2.2-3.5).
+  // The gauge's anchor (the first camera's held translation, which the other cameras' follow:
+  // anchors()) is kept, so that the prior is conditioned on it as the solves are. Forgotten, it
+  // took along what the leaving frames told of the first camera's focal lengths and time offset
+  // (their tie to imu0's position went with it: 8.6 px and 0.8 ms off on translation-only
+  // motion, against 0.7-1.4 px and 0.13 ms for the others), while the followers, kept, let the
+  // prior learn the shift nothing tells from the leaving frames' linearization points (position
+  // NEES rising to 47 for 3 over a run; 2026-11-27).
   bool camera_intrinsics = false;  // any camera's estimated
   for (const Camera& c : rig_.cameras) {
     camera_intrinsics = camera_intrinsics || (options_.estimate_intrinsics &&
@@ -494,34 +565,11 @@ std::map<const double*, Eigen::MatrixXd> ObservabilityMonitor::heldDirections() 
   }
   for (const auto& [block, D] : uninformative_) {
     if (intrinsics_.isBlock(block)) continue;                              // kept: considered
+    if (anchors(block)) continue;                                          // kept: the gauge
     if (!camera_intrinsics && window_blocks_.count(block) == 0) continue;  // kept
     out[block] = D;                                                        // as unknown
   }
   return out;
-}
-
-void ObservabilityMonitor::liftHolds(ceres::Problem* problem, bool considered_only) {
-  for (const auto& [const_block, hold] : holds_) {
-    if (considered_only && !considered(const_block)) continue;
-    double* block = const_cast<double*>(const_block);
-    if (hold.subspace) {
-      problem->SetManifold(block, hold.base);
-    } else {
-      problem->SetParameterBlockVariable(block);
-    }
-  }
-}
-
-void ObservabilityMonitor::restoreHolds(ceres::Problem* problem, bool considered_only) {
-  for (const auto& [const_block, hold] : holds_) {
-    if (considered_only && !considered(const_block)) continue;
-    double* block = const_cast<double*>(const_block);
-    if (hold.subspace) {
-      problem->SetManifold(block, hold.subspace.get());
-    } else {
-      problem->SetParameterBlockConstant(block);
-    }
-  }
 }
 
 }  // namespace estimator_internal

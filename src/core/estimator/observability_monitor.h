@@ -40,9 +40,9 @@ class ObservabilityMonitor {
 
   // Adds the base motion between window states at a and b (its readings over [a, b] and the gyro
   // bias there; with `R_a` the base IMU's orientation at a (R_W_I) and `gravity` the gravity
-  // vector, also how gravity turns in its frame (parallelViews; kept only while the base IMU's
-  // and the cameras' intrinsics are estimated, which is when it is asked; a zero gravity leaves
-  // it out).
+  // vector, also how gravity and the kinematic acceleration go in its frame (parallelViews,
+  // accelerationAlong; kept only while the cameras' intrinsics are estimated, which is when they
+  // are asked; a zero gravity leaves them out).
   void addMotion(TimeNs a, TimeNs b, const std::vector<ImuMeasurement>& readings,
                  const Eigen::Vector3d& bias_gyro,
                  const Eigen::Quaterniond& R_a = Eigen::Quaterniond::Identity(),
@@ -65,8 +65,8 @@ class ObservabilityMonitor {
   const std::map<const double*, Eigen::MatrixXd>& uninformative() const { return uninformative_; }
   // What the marginalization must not learn along: per block the held directions (orthonormal
   // tangent columns), marginalized as unknown. Held extrinsic and time offset directions are not
-  // in it unless the cameras' intrinsics are estimated, the IMU intrinsics' never (see the
-  // definition).
+  // in it unless the cameras' intrinsics are estimated, the IMU intrinsics' (considered) and
+  // the gauge's anchor (anchors()) never (see the definition).
   std::map<const double*, Eigen::MatrixXd> heldDirections() const;
 
   // The block's own manifold, also while it is held.
@@ -125,11 +125,12 @@ class ObservabilityMonitor {
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
     double time_offset = 0.0;      // int |alpha|^2 dt, less the noise's share (may be < 0)
     double time_offset_var = 0.0;  // that estimate's variance from the gyroscope's noise
-    // Over the readings, gravity in the base IMU's frame g_I = R^T g: T = int dt, int g dt,
-    // int g g^T dt (all zero without the orientation).
+    // Over the readings, in the base IMU's frame: gravity g_I = R^T g and the kinematic
+    // acceleration k = a + g_I (a the specific force): T = int dt, int g dt, int g g^T dt,
+    // int k dt, int k k^T dt (all zero without the orientation).
     double T = 0.0, span = 0.0;  // span: the readings' whole time, with or without it
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d gg = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero(), k = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d gg = Eigen::Matrix3d::Zero(), kk = Eigen::Matrix3d::Zero();
   };
   // Whether the recent views of the board are parallel (Sturm and Maybank 1999): gravity's
   // direction in the base IMU turned by less than 5 deg (RMS about its mean, widest axis) over
@@ -137,6 +138,10 @@ class ObservabilityMonitor {
   // board: 0). False without the orientations over at least 2 s and most of the horizon's
   // motion (right after the start the few states in it looked parallel on hand-held motion).
   bool parallelViews() const;
+  // The RMS kinematic acceleration along the unit direction n (base frame) over the horizon
+  // [m/s^2] (yaw-only motion along the VI-Rig cameras' axis: 0.01; translation-only and
+  // hand-held: 0.6); -1 when unknown (as parallelViews).
+  double accelerationAlong(const Eigen::Vector3d& n) const;
   // Time-weighted moments of one sensor's readings between two window states.
   struct ReadingMoments {
     TimeNs t = 0;    // the later state's time
@@ -186,8 +191,15 @@ class ObservabilityMonitor {
   // Adds the joint check's parts to uninformative_ and its findings to unobservable_.
   void holdWindowParts();
   // The holds (or only the considered ones) lifted (own manifolds, variable) and put back.
-  void liftHolds(ceres::Problem* problem, bool considered_only = false);
-  void restoreHolds(ceres::Problem* problem, bool considered_only = false);
+  // With `keep_anchor` the gauge's anchor (below) stays held.
+  void liftHolds(ceres::Problem* problem, bool considered_only = false, bool keep_anchor = false) {
+    setHolds(problem, false, considered_only, keep_anchor);
+  }
+  void restoreHolds(ceres::Problem* problem, bool considered_only = false,
+                    bool keep_anchor = false) {
+    setHolds(problem, true, considered_only, keep_anchor);
+  }
+  void setHolds(ceres::Problem* problem, bool held, bool considered_only, bool keep_anchor);
   void spatialQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void intrinsicsQuantities(const ceres::Problem& problem, std::vector<Quantity>* out) const;
   void applyHolds(ceres::Problem* problem);
@@ -197,6 +209,21 @@ class ObservabilityMonitor {
                          Eigen::MatrixXd* U, Eigen::VectorXd* v) const;
   // An IMU intrinsics block whose held directions are considered (above).
   bool considered(const double* block) const;
+  // The cameras' common position on the base IMU as a gauge (online, the cameras' intrinsics
+  // estimated; spatialQuantities): the first camera's translation held, the others not held
+  // (`followers_`, found by check()) and placed by the images relative to it. Nothing tells
+  // their common shift d on the motion that held it (with imu0's positions shifted by -R_W_I
+  // d, every residual is the same), so the solves and the marginalization take the anchor as
+  // known (kept, not forgotten: the prior conditioned on it, as the solves are), and every
+  // covariance adds what the anchor's kept variance V moves along that shift, G V G^T, with
+  // G = d(block's tangent) / d(anchor's held coordinates) (gaugeMap).
+  bool anchors(const double* block) const;
+  // G for a block (its tangent rows x the anchor's held directions); empty if the gauge does
+  // not move it. `pose`: a window state's pose block (its position moves by -R_W_I d).
+  Eigen::MatrixXd gaugeMap(const double* block, bool pose = false) const;
+  // The gauge's variances along the anchor's held directions (empty without a gauge).
+  Eigen::VectorXd gaugeVariance() const;
+  void findFollowers(const ceres::Problem& problem);
   // The latest tangent covariance of a calibration block: the full one for IMU intrinsics once
   // computed, else diag(latest std^2).
   Eigen::MatrixXd latestCovariance(const double* block) const;
@@ -212,6 +239,7 @@ class ObservabilityMonitor {
   std::map<const double*, Hold> holds_;
   std::uint64_t holds_made_ = 0;
   std::set<const double*> window_blocks_;  // blocks holding a part of a joint weak direction
+  std::vector<const double*> followers_;   // the cameras' extrinsics following the anchor
   std::vector<std::pair<const double*, Eigen::VectorXd>> window_parts_;  // (block, direction)
   std::vector<UnobservableCalibration> window_found_;
   long solves_since_window_check_ = 0;
