@@ -12,10 +12,11 @@
 // The gauge (anchors()): with the first camera's translation held along D (tangent coordinates a
 // of variance V) and other cameras following it, nothing the data say changes when every sensor
 // moves in {I} by d = -R_C0_I^T D_p a and imu0 by -R_W_I d in {W} (every camera's pose in {W}
-// stays). The solves and the prior are conditioned on a; its error moves a follower's p_X_I by
-// -R_X_I d and every state's position by -R_W_I d, exactly, so the covariances add G V G^T with
-// that G (gaugeMap) instead of releasing a: released, the window's information along the shift
-// is only what the linearization points make up, and took the position NEES to 6-47 for 3.
+// stays; without a board the tags move instead). The solves and the prior are conditioned on a;
+// its error moves a follower's p_X_I by -R_X_I d and, with a board, every state's position by
+// -R_W_I d, exactly, so the covariances add G V G^T with that G (gaugeMap) instead of releasing
+// a: released, the window's information along the shift is only what the linearization points
+// make up, and took the position NEES to 6-47 for 3.
 #include <algorithm>
 
 #include "mvis/estimator/observability.h"
@@ -80,6 +81,9 @@ Eigen::MatrixXd ObservabilityMonitor::gaugeMap(const double* block, bool pose) c
       -(poseRotation(anchor).toRotationMatrix().transpose() * D.bottomRows<3>());
   const bool follows = std::find(followers_.begin(), followers_.end(), block) != followers_.end();
   if (!pose && !follows) return {};
+  // Without a board the estimation frame is imu0's first state's (a tight prior holds it): the
+  // tags' corners move with the cameras instead, and imu0's positions stay.
+  if (pose && !rig_.target) return {};
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(6, D.cols());
   G.bottomRows<3>() = -(poseRotation(block).toRotationMatrix() * d);
   return G;
@@ -189,7 +193,7 @@ Status ObservabilityMonitor::poseCovarianceWithHeld(ceres::Problem* problem,
   const Eigen::VectorXd V = gaugeVariance();
   for (std::size_t k = 0; ok && V.size() > 0 && k < poses.size(); ++k) {
     const Eigen::MatrixXd G = gaugeMap(poses[k], true);
-    (*out)[k] += G * V.asDiagonal() * G.transpose();
+    if (G.size() > 0) (*out)[k] += G * V.asDiagonal() * G.transpose();
   }
   for (ceres::ResidualBlockId id : added) problem->RemoveResidualBlock(id);
   restoreHolds(problem, false, true);
