@@ -470,7 +470,7 @@ Eigen::MatrixXd ObservabilityMonitor::tangentCovariance(const ceres::Problem& pr
   const auto h = holds_.find(block);
   if (h == holds_.end() || !h->second.subspace) {
     const Eigen::MatrixXd G = gaugeMap(block);
-    if (G.size() > 0) C += G * gaugeVariance().asDiagonal() * G.transpose();
+    if (G.size() > 0 && G.rows() == C.rows()) C += G * gaugeVariance().asDiagonal() * G.transpose();
     return C;
   }
   const Hold& hold = h->second;
@@ -524,7 +524,9 @@ Eigen::MatrixXd ObservabilityMonitor::jointTangentCovariance(
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(rows, v.size());
     r = 0;
     for (std::size_t i = 0; i < maps.size(); ++i) {
-      if (gauge[i].size() > 0) G.middleRows(r, gauge[i].rows()) = gauge[i];
+      if (gauge[i].size() > 0 && gauge[i].rows() == maps[i].rows()) {
+        G.middleRows(r, gauge[i].rows()) = gauge[i];
+      }
       r += static_cast<int>(maps[i].rows());
     }
     K += G * v.asDiagonal() * G.transpose();
