@@ -61,15 +61,24 @@ bool ImuBuffer::insideGap(TimeNs t) const {
 
 double ImuBuffer::maxInterval() const { return rate_hz_ > 0.0 ? 2.5 / rate_hz_ : 0.0; }
 
-Eigen::Vector3d ImuBuffer::angularAcceleration(TimeNs t) const {
+namespace {
+
+// Least-squares lines through the gyroscope and accelerometer readings within 10 ms of t, in
+// time relative to t: their values and slopes at t. False with fewer than three readings.
+struct LocalLines {
+  Eigen::Vector3d gyro, gyro_slope, accel, accel_slope;
+};
+
+bool fitLocalLines(const std::deque<ImuMeasurement>& readings, TimeNs t, LocalLines* out) {
   const TimeNs half = fromSeconds(0.01);
   double st = 0.0, stt = 0.0;
   Eigen::Vector3d sw = Eigen::Vector3d::Zero(), stw = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sa = Eigen::Vector3d::Zero(), sta = Eigen::Vector3d::Zero();
   int n = 0;
   const auto first =
-      std::lower_bound(readings_.begin(), readings_.end(), t - half,
+      std::lower_bound(readings.begin(), readings.end(), t - half,
                        [](const ImuMeasurement& m, TimeNs s) { return m.stamp_ns < s; });
-  for (auto it = first; it != readings_.end(); ++it) {
+  for (auto it = first; it != readings.end(); ++it) {
     const ImuMeasurement& m = *it;
     if (m.stamp_ns > t + half) break;
     const double x = toSeconds(m.stamp_ns - t);
@@ -77,11 +86,34 @@ Eigen::Vector3d ImuBuffer::angularAcceleration(TimeNs t) const {
     stt += x * x;
     sw += m.gyro;
     stw += x * m.gyro;
+    sa += m.accel;
+    sta += x * m.accel;
     ++n;
   }
   const double denominator = n * stt - st * st;
-  if (n < 3 || denominator <= 0.0) return Eigen::Vector3d::Zero();
-  return (n * stw - st * sw) / denominator;
+  if (n < 3 || denominator <= 0.0) return false;
+  out->gyro_slope = (n * stw - st * sw) / denominator;
+  out->accel_slope = (n * sta - st * sa) / denominator;
+  out->gyro = (sw - out->gyro_slope * st) / n;
+  out->accel = (sa - out->accel_slope * st) / n;
+  return true;
+}
+
+}  // namespace
+
+Eigen::Vector3d ImuBuffer::angularAcceleration(TimeNs t) const {
+  LocalLines lines;
+  return fitLocalLines(readings_, t, &lines) ? lines.gyro_slope : Eigen::Vector3d::Zero();
+}
+
+ImuMeasurement ImuBuffer::smoothedAt(TimeNs t) const {
+  ImuMeasurement m = at(t);
+  LocalLines lines;
+  if (fitLocalLines(readings_, t, &lines)) {
+    m.gyro = lines.gyro;
+    m.accel = lines.accel;
+  }
+  return m;
 }
 
 void ImuBuffer::trimBefore(TimeNs keep_from) {

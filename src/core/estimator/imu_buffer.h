@@ -61,6 +61,12 @@ class ImuBuffer {
   double maxInterval() const;
   // Angular acceleration at t: slope of a line fitted to the gyroscope readings within 10 ms.
   Eigen::Vector3d angularAcceleration(TimeNs t) const;
+  // The reading at t from lines fitted to the readings within 10 ms (their values at t), at(t)
+  // where fewer than three are there: the base motion at a window state (base_motion.h), which
+  // shifts the auxiliary IMUs' and gyroscopes' ends by their time offsets' changes. One
+  // reading's white noise (the VI-Rig's gyroscope: 3.8e-3 rad/s) is all a rig that does not
+  // turn shows of its rate, and a time offset's derivative there took it as motion.
+  ImuMeasurement smoothedAt(TimeNs t) const;
   // Drops readings before keep_from, keeping at least two.
   void trimBefore(TimeNs keep_from);
 
