@@ -201,9 +201,12 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
   if (!intrinsics_.block(i) || readings.size() < 2) return;
   ReadingMoments m;
   m.t = t;
+  // Gravity's moments only where they are asked: the base accelerometer's check while the
+  // cameras' intrinsics are estimated (intrinsicsQuantities); zero moments change nothing else.
+  const bool with_gravity = i == 0 && options_.estimate_intrinsics;
   const std::vector<Eigen::Vector3d> gravities =
-      i == 0 ? gravityInSensor(readings, R_start, gravity, bias_gyro)
-             : std::vector<Eigen::Vector3d>();
+      with_gravity ? gravityInSensor(readings, R_start, gravity, bias_gyro)
+                   : std::vector<Eigen::Vector3d>();
   for (std::size_t k = 0; k + 1 < readings.size(); ++k) {
     const double dt = toSeconds(readings[k + 1].stamp_ns - readings[k].stamp_ns);
     if (!(dt > 0.0)) continue;
@@ -216,7 +219,7 @@ void ObservabilityMonitor::addReadingMoments(std::size_t i, TimeNs t,
     m.ww += w * w.transpose() * dt;
     m.aa += a * a.transpose() * dt;
     m.wa += w * a.transpose() * dt;
-    if (i == 0) {
+    if (with_gravity) {
       const Eigen::Vector3d& g = gravities[k];
       m.g += g * dt;
       m.gg += g * g.transpose() * dt;
