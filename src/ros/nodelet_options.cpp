@@ -97,8 +97,9 @@ std::string NodeletOptions::validate() const {
            aux_imu_model + "'";
   }
   if (max_iterations < 1) return "parameter ~max_iterations must be >= 1";
-  if (solve_every < 1 || solve_every >= window_size) {
-    return "parameter ~solve_every must be >= 1 and < ~window_size";
+  if (solve_every < 1 || solve_every > window_size - 2) {
+    return "parameter ~solve_every must be >= 1 and <= ~window_size - 2 (each state is solved "
+           "with at least three later states before it is marginalized)";
   }
   if (solver_threads < 1) return "parameter ~solver_threads must be >= 1";
   return "";

@@ -40,14 +40,15 @@ std::unique_ptr<Estimator> withoutBoard(const SimRun& run, int carried_tags = -1
 
 // Every camera and auxiliary sensor of `estimate` against the truth, within the bounds of a
 // 15 s run without the board (printed with `label`).
-void expectCalibratedWithoutBoard(const SimRun& run, const Rig& estimate, const char* label) {
+void expectCalibratedWithoutBoard(const SimRun& run, const Rig& estimate, const char* label,
+                                  double camera_translation_mm = 1.5) {
   for (std::size_t c = 0; c < run.truth.cameras.size(); ++c) {
     const CameraErrors after = errors(run.truth.cameras[c], estimate.cameras[c]);
     std::printf("%s%s: %.4f deg, %.3f mm, %.4f ms; error/sigma rot %.2f pos %.2f dt %.2f\n", label,
                 run.truth.cameras[c].name.c_str(), after.rotation_deg, after.translation_mm,
                 after.time_offset_ms, after.rotation_sigma_ratio.maxCoeff(),
                 after.translation_sigma_ratio.maxCoeff(), after.time_offset_sigma_ratio);
-    test::expectCalibrated(after, run.truth.cameras[c].name, 0.05, 1.5, 0.15);
+    test::expectCalibrated(after, run.truth.cameras[c].name, 0.05, camera_translation_mm, 0.15);
   }
   for (std::size_t i = 1; i < run.truth.inertial.size(); ++i) {
     const CameraErrors after = inertialErrors(run.truth.inertial[i], estimate.inertial[i]);
@@ -153,8 +154,12 @@ TEST(EstimatorLandmarks, CarriesAtMostTheConfiguredTags) {
   std::printf("at most %d tags carried of %d in the window\n", most_carried, most_landmarks);
   EXPECT_EQ(most_carried, 4);
   EXPECT_GE(most_landmarks, 30);  // nearly every tag of the board is in view at some point
-  // Measured: 0.005-0.016 deg, 1.02-1.29 mm, 0.053-0.084 ms, at most 1.6 sigma.
-  expectCalibratedWithoutBoard(run, estimator->calibration(), "carrying 4 tags, ");
+  // Measured: 0.017-0.026 deg, 1.38-1.56 mm, 0.069-0.093 ms, at most 1.7 sigma (with a 4-state
+  // window 0.006-0.032 deg, 0.96-1.34 mm). Over 12 runs of this kind (`scripts/monte_carlo 12
+  // --no-board --duration 15 -- --carried-tags 4`) the cameras' translations end 1.21-1.28 mm
+  // off on average and at most 1.88 mm (a 4-state window: 1.40-1.48, at most 2.55 mm), so the
+  // other tests' 1.5 mm is a seed's luck here. Bound: 2 mm, and 3 sigma per axis.
+  expectCalibratedWithoutBoard(run, estimator->calibration(), "carrying 4 tags, ", 2.0);
 }
 
 // With window_own_tags off the tags beyond the carried ones are left out: the window never holds

@@ -112,11 +112,12 @@ TEST(Estimator, YawOnlyMotionLeavesTheAxisDirectionsUncertain) {
         truth.name.c_str(), e.rotation.norm() * 180 / M_PI, gyro ? 0.0 : e.translation.norm() * 1e3,
         std::abs(e.time_offset) * 1e3, (*stds)[index], moved, others);
     // Measured (seed 4): along the axis std 0.099 m (imu1) and 0.099 rad (imu2) against a
-    // prior of 0.1, and no movement; across it <= 2 mm / 2 mrad. Without the observability
-    // check the stds shrank to 0.0036 m and 0.05 rad and the estimates drifted by 84 mm and
-    // 6.7 deg (5.9 sigma).
+    // prior of 0.1, moved 1.5 mm and 0.13 mrad; across it <= 2 mm / 2 mrad. Without the
+    // observability check the stds shrank to 0.0036 m and 0.05 rad and the estimates drifted by
+    // 84 mm and 6.7 deg (5.9 sigma). imu1's movement over seeds 1-8: 0.2-2.5 mm (a 4-state
+    // window: 0.1-5.4 mm). Bound: 5e-3, a twentieth of the held std and of that drift.
     EXPECT_GT((*stds)[index], 0.07) << truth.name;
-    EXPECT_LT(moved, 1e-3) << truth.name;
+    EXPECT_LT(moved, 5e-3) << truth.name;
     EXPECT_GT((*stds)[index], 20.0 * others) << truth.name;
     // What stays observable converges: time offsets, and the aux IMU's rotation.
     EXPECT_LT(std::abs(e.time_offset) * 1e3, 0.1) << truth.name;

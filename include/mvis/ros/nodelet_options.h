@@ -25,7 +25,7 @@ struct NodeletOptions {
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
   int tag_threads = 1;  // > 1: cameras' images detected in parallel (and libapriltag's threads)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
-  int window_size = 4;                 // states in the sliding window
+  int window_size = 5;                 // states in the sliding window
   int carried_tags = 12;               // without a board: tags carried in the prior (0: all)
   bool window_own_tags = true;         // without a board: use the tags beyond them
   double pixel_sigma = 1.0;            // [px] corner noise
