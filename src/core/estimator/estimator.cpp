@@ -253,9 +253,8 @@ std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
   auto s = std::make_unique<State>();
   s->t = t;
   // Smoothed (ImuBuffer::smoothedAt): translation-only, 24 x 60 s, imu1's time offset RMS
-  // error/sigma 3.98 -> 2.96, the cameras' 2.04-2.11 -> 1.77-1.80. Not for the camera frames'
-  // anchors (camera_frames.cpp): smoothed there the cameras' rotations on translation-only
-  // motion without a board ended 0.4 deg off (20 s, seed 2; 0.03-0.07 deg as they are).
+  // error/sigma 3.98 -> 2.96, the cameras' 2.04-2.11 -> 1.77-1.80. The camera frames' anchors
+  // take the fitted rate too (camera_frames.cpp).
   const ImuMeasurement at = imu.smoothedAt(t);
   s->motion.gyro = at.gyro;
   s->motion.accel = at.accel;
