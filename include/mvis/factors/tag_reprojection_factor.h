@@ -15,7 +15,9 @@
 //       R_a = R_k dR(b_g),  p_a = p_k + v_k T_a + 1/2 g T_a^2 + R_k dp(b),
 //       v_a = v_k + g T_a + R_k dv(b)
 //     and the remaining dt = t - t_a (the time offset's change since) is covered to second
-//     order with the readings at t_a (w_m, a_m) and the angular acceleration alpha there:
+//     order with the readings at t_a (w_m, a_m; the estimator gives w_m as a line's value at t_a
+//     fitted to the gyroscope within 10 ms, not one noisy reading) and the angular
+//     acceleration alpha there:
 //       R(t) = R_a Exp((w_m - b_g) dt + 1/2 alpha dt^2)
 //       p(t) = p_a + v_a dt + 1/2 (R_a (a_m - b_a) + g) dt^2
 //     With the IMU intrinsics estimated the deltas also depend on them (x_I, the sensor's
