@@ -63,7 +63,8 @@ class ImuBuffer {
   Eigen::Vector3d angularAcceleration(TimeNs t) const;
   // The reading at t from lines fitted to the readings within 10 ms (their values at t), at(t)
   // where fewer than three are there: the base motion at a window state (base_motion.h), which
-  // shifts the auxiliary IMUs' and gyroscopes' ends by their time offsets' changes. One
+  // shifts the auxiliary IMUs' and gyroscopes' ends by their time offsets' changes, and the rate
+  // that shifts a camera frame's anchor (camera_frames.cpp). One
   // reading's white noise (the VI-Rig's gyroscope: 3.8e-3 rad/s) is all a rig that does not
   // turn shows of its rate, and a time offset's derivative there took it as motion.
   ImuMeasurement smoothedAt(TimeNs t) const;
