@@ -122,7 +122,8 @@ class ObservabilityMonitor {
   struct MotionInformation {
     TimeNs t = 0;                                           // the later state's time
     Eigen::Matrix3d translation = Eigen::Matrix3d::Zero();  // int (hat(a) + hat(w)^2)^T (...) dt
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();     // int hat(w)^T hat(w) dt
+    double translation_var = 0.0;  // its noise's variance along any direction (at most)
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();  // int hat(w)^T hat(w) dt
     double time_offset = 0.0;      // int |alpha|^2 dt, less the noise's share (may be < 0)
     double time_offset_var = 0.0;  // that estimate's variance from the gyroscope's noise
     // Over the readings, in the base IMU's frame: gravity g_I = R^T g and the kinematic
