@@ -289,6 +289,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   }
   result.counters = estimator->counters();
   result.sigma_inflation = estimator->sigmaInflation();
+  result.time_offset_floor = estimator->timeOffsetFloor();
   result.status = estimator->status();
   return result;
 }

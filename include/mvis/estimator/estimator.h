@@ -432,6 +432,8 @@ struct EstimatorCounters {
   long inconsistencies = 0;     // intrinsics moved beyond what their covariance allows
   long held_intrinsics_misfits = 0;  // the data disagree with a held Tg (held_intrinsics_p)
   long stamps_implausible = 0;  // frames and aux readings stamped far from the base IMU's time
+  // covariances where a time offset's sigma was under 0.8 of Estimator::timeOffsetFloor()
+  long time_offsets_under_floor = 0;
   // The degeneracy check of the window's information (window_observability_ratio): its runs and
   // their total time [s].
   long window_checks = 0;
@@ -499,6 +501,12 @@ class Estimator {
   // least 1; 1 until 10 s of data and three covariances): the failure checks are scaled by it.
   // 1.0 on mvis's simulator, 1.8-3.7 on the real EuRoC bag (test_real_euroc).
   double sigmaInflation() const;
+  // The smallest standard deviation any time offset against imu0 can have on the data so far
+  // [s]: imu0's white noise along the motion its readings show between the window states, as if
+  // everything else were known (evaluation.h's timeOffsetFloor from the readings instead of the
+  // truth); NaN before the window. A time offset whose sigma falls well under it is said
+  // (EstimatorCounters::time_offsets_under_floor).
+  double timeOffsetFloor() const;
   // Inertial sensor i's score statistic for its held gravity sensitivity over the last
   // held_intrinsics_horizon_s, and its degrees of freedom in *dof (0: nothing held and tested,
   // or less than a full horizon of data; EstimatorOptions::held_intrinsics_p).

@@ -56,6 +56,7 @@ struct OfflineResult {
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
   double sigma_inflation = 1.0;       // Estimator::sigmaInflation at the end
+  double time_offset_floor = 0.0;     // Estimator::timeOffsetFloor at the end [s] (NaN: none)
   std::string status;                 // the estimator's last word
   std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
   // What the last update found unobservable and held (UnobservableCalibration::text()).

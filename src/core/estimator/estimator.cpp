@@ -249,6 +249,14 @@ void Estimator::Impl::process() {
   }
 }
 
+void Estimator::Impl::addTimeOffsetInformation(TimeNs t) {
+  if (information_until != std::numeric_limits<TimeNs>::min() && t > information_until &&
+      t - information_until <= kMaxBlindNs) {
+    time_offset_information += imu.timeOffsetInformation(information_until, t);
+  }
+  information_until = t;
+}
+
 std::unique_ptr<State> Estimator::Impl::makeState(TimeNs t) const {
   auto s = std::make_unique<State>();
   s->t = t;
@@ -290,6 +298,7 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
   const Eigen::Quaterniond R_last(poseRotation(last.pose));
   auto pre = imu.preintegrate(last_t, t, bg, ba);  // raw with intrinsics: the factor corrects
   auto s = makeState(t);
+  addTimeOffsetInformation(t);
   // The state as it stays until the next solve (solve_every): from corrected readings, or in a
   // batch where the seed trajectory has it.
   if (!seedAt(t, s.get())) {
@@ -552,6 +561,10 @@ Estimator::Restart Estimator::lastRestart() const {
   return {impl_->last_restart, impl_->last_restart_ns};
 }
 double Estimator::sigmaInflation() const { return std::sqrt(impl_->trusted.inflation()); }
+double Estimator::timeOffsetFloor() const {
+  const double info = impl_->time_offset_information;
+  return info > 0.0 ? 1.0 / std::sqrt(info) : std::numeric_limits<double>::quiet_NaN();
+}
 void Estimator::reset() {
   impl_->restart("reset requested", impl_->imu.empty() ? 0 : impl_->imu.lastStamp());
   impl_->restart_note.clear();  // the caller knows

@@ -63,7 +63,13 @@ struct Estimator::Impl {
   std::string covariance_failure;  // what the latest covariance found wrong, for process()
   std::string calibration_note;    // its sigmas not to be trusted on this data, unsaid yet
   double said_inflation = 1.0;     // the largest inflation said so far (TrustedCalibration)
-  TimeNs last_restart_ns = 0;      // base clock
+  // What imu0's readings between the states made so far tell of a time offset against them
+  // (ImuBuffer::timeOffsetInformation summed) [1/s^2], up to the last state's time; kept over
+  // restarts (the trusted calibration rests on that data).
+  double time_offset_information = 0.0;
+  TimeNs information_until = std::numeric_limits<TimeNs>::min();
+  bool said_floor = false;     // a time offset's sigma under that floor said
+  TimeNs last_restart_ns = 0;  // base clock
   int solves_since_covariance = 0;
   int frames_since_solve = 0;
   // Batch (EstimatorOptions::batch; estimator_batch.cpp): the calibration's starting values, the
@@ -86,6 +92,12 @@ struct Estimator::Impl {
   void addState(const TagFrame& frame, TimeNs t);
   // A new window state at base time t with its readings (pose and speed left to the caller).
   std::unique_ptr<State> makeState(TimeNs t) const;
+  // Adds what imu0's readings tell of a time offset from the last state made to one at t.
+  void addTimeOffsetInformation(TimeNs t);
+  // Says (once) and counts time offsets whose sigma is under kFloorShare of the floor.
+  void checkTimeOffsetFloor(const ceres::Problem& problem,
+                            const estimator_internal::TangentCovariance& tangent);
+  static constexpr double kFloorShare = 0.8;
   // The IMU factor between states k and k+1, on readings preintegrated at state k's biases.
   void addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
   // Solves the window (max_time_s <= 0: the option's budget) and refreshes what depends on the

@@ -124,6 +124,7 @@ void Estimator::Impl::initialize() {
   }
   for (std::size_t i = 0; i < n; ++i) {
     auto s = makeState(init[i].t);
+    addTimeOffsetInformation(init[i].t);
     se3ToPose(init[i].T_G_I, s->pose);
     Eigen::Map<Eigen::Vector3d>(s->speed_bias) = velocities[i];
     std::fill(s->speed_bias + 3, s->speed_bias + 9, 0.0);

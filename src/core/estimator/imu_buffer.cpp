@@ -67,10 +67,12 @@ namespace {
 // time relative to t: their values and slopes at t. False with fewer than three readings.
 struct LocalLines {
   Eigen::Vector3d gyro, gyro_slope, accel, accel_slope;
+  double sxx = 0.0;  // sum of (time - mean time)^2 over the readings [s^2]: slope variance 1/sxx
 };
 
-bool fitLocalLines(const std::deque<ImuMeasurement>& readings, TimeNs t, LocalLines* out) {
-  const TimeNs half = fromSeconds(0.01);
+bool fitLocalLines(const std::deque<ImuMeasurement>& readings, TimeNs t, LocalLines* out,
+                   double half_span_s = 0.01) {
+  const TimeNs half = fromSeconds(half_span_s);
   double st = 0.0, stt = 0.0;
   Eigen::Vector3d sw = Eigen::Vector3d::Zero(), stw = Eigen::Vector3d::Zero();
   Eigen::Vector3d sa = Eigen::Vector3d::Zero(), sta = Eigen::Vector3d::Zero();
@@ -92,6 +94,7 @@ bool fitLocalLines(const std::deque<ImuMeasurement>& readings, TimeNs t, LocalLi
   }
   const double denominator = n * stt - st * st;
   if (n < 3 || denominator <= 0.0) return false;
+  out->sxx = denominator / n;
   out->gyro_slope = (n * stw - st * sw) / denominator;
   out->accel_slope = (n * sta - st * sa) / denominator;
   out->gyro = (sw - out->gyro_slope * st) / n;
@@ -104,6 +107,30 @@ bool fitLocalLines(const std::deque<ImuMeasurement>& readings, TimeNs t, LocalLi
 Eigen::Vector3d ImuBuffer::angularAcceleration(TimeNs t) const {
   LocalLines lines;
   return fitLocalLines(readings_, t, &lines) ? lines.gyro_slope : Eigen::Vector3d::Zero();
+}
+
+double ImuBuffer::timeOffsetInformation(TimeNs a, TimeNs b) const {
+  // Lines through the readings of [a, b] (their slopes at its middle): the most readings there
+  // are on both sides of a time the buffer has passed.
+  LocalLines lines;
+  const TimeNs middle = a + (b - a) / 2;
+  if (!(rate_hz_ > 0.0) || b <= a ||
+      !fitLocalLines(readings_, middle, &lines, 0.5 * toSeconds(b - a))) {
+    return 0.0;
+  }
+  // A slope's noise adds 3 sigma^2 / sxx to its squared norm on average (sigma^2 = q^2 rate, one
+  // reading's variance per axis): taken out, so that noise is not counted as motion. Not clipped
+  // at zero here: where the rig hardly moves that would keep the noise's upper half (the floor
+  // from translation-only motion came out 0.036 ms against the truth's 0.051 ms); the sum over
+  // a run is unbiased.
+  const auto term = [&](const Eigen::Vector3d& slope, double q) {
+    if (!(q > 0.0)) return 0.0;
+    const double noise = 3.0 * q * q * rate_hz_ / lines.sxx;
+    return (slope.squaredNorm() - noise) / (q * q);
+  };
+  return (term(lines.gyro_slope, noise_.gyroscope_noise_density) +
+          term(lines.accel_slope, noise_.accelerometer_noise_density)) *
+         toSeconds(b - a);
 }
 
 ImuMeasurement ImuBuffer::smoothedAt(TimeNs t) const {

@@ -68,6 +68,12 @@ class ImuBuffer {
   // reading's white noise (the VI-Rig's gyroscope: 3.8e-3 rad/s) is all a rig that does not
   // turn shows of its rate, and a time offset's derivative there took it as motion.
   ImuMeasurement smoothedAt(TimeNs t) const;
+  // What the readings over [a, b] tell of a time offset against them [1/s^2]: (b - a) times
+  // |w'|^2 / q_g^2 + |f'|^2 / q_a^2 (evaluation.h's timeOffsetFloor), the rate's and specific
+  // force's slopes from lines through those readings less what their noise adds on average (so
+  // negative where the rig hardly moves; a sum over many intervals is what means something); 0
+  // where no line fits.
+  double timeOffsetInformation(TimeNs a, TimeNs b) const;
   // Drops readings before keep_from, keeping at least two.
   void trimBefore(TimeNs keep_from);
 
