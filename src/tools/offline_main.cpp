@@ -468,7 +468,7 @@ int main(int argc, char** argv) {
   if (std::isfinite(o.time_offset_floor)) {
     std::printf(
         "time offsets' floor from imu0's noise along the motion its readings show: %.4f ms (1 "
-        "sigma; %ld covariances had a time offset's sigma under 0.8 of it)\n",
+        "sigma; %ld covariances had a time offset's sigma under 0.9 of it)\n",
         o.time_offset_floor * 1e3, c.time_offsets_under_floor);
   }
   double update_total_ms = 0.0;

@@ -432,7 +432,7 @@ struct EstimatorCounters {
   long inconsistencies = 0;     // intrinsics moved beyond what their covariance allows
   long held_intrinsics_misfits = 0;  // the data disagree with a held Tg (held_intrinsics_p)
   long stamps_implausible = 0;  // frames and aux readings stamped far from the base IMU's time
-  // covariances where a time offset's sigma was under 0.8 of Estimator::timeOffsetFloor()
+  // covariances where a time offset's sigma was under 0.9 of Estimator::timeOffsetFloor()
   long time_offsets_under_floor = 0;
   // The degeneracy check of the window's information (window_observability_ratio): its runs and
   // their total time [s].

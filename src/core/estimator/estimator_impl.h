@@ -97,7 +97,7 @@ struct Estimator::Impl {
   // Says (once) and counts time offsets whose sigma is under kFloorShare of the floor.
   void checkTimeOffsetFloor(const ceres::Problem& problem,
                             const estimator_internal::TangentCovariance& tangent);
-  static constexpr double kFloorShare = 0.8;
+  static constexpr double kFloorShare = 0.9;
   // The IMU factor between states k and k+1, on readings preintegrated at state k's biases.
   void addImuFactor(std::size_t k, std::shared_ptr<const ImuPreintegration> pre);
   // Solves the window (max_time_s <= 0: the option's budget) and refreshes what depends on the
