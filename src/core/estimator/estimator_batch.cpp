@@ -193,7 +193,8 @@ void Estimator::Impl::checkTimeOffsetFloor(const ceres::Problem& problem,
   // 0.9: the floor from the readings is within about 1% of the truth's over a minute, and a
   // consistent estimate stays well above it (at the end of 60 s on the VI-Rig: 1.43x hand-held,
   // 1.17x translation-only, 1.34x yaw-only); 0.89 on translation-only motion with 0.05 px
-  // corners, where the frames' propagation noise is not modelled, is said (errors 3-7 sigma).
+  // corners, where the frames' propagation noise is not modelled, is said (one run's errors 3.5
+  // sigma for the cameras, 7 for imu1).
   // The bound is on what the sensors share against imu0 (every offset moving together shows
   // only in imu0's readings), so it holds for each offset while all of them are estimated; a
   // sensor whose offset is taken as known would be another clock to measure against: then no
