@@ -200,38 +200,37 @@ void Estimator::Impl::checkTimeOffsetFloor(const ceres::Problem& problem,
   // sensor whose offset is taken as known would be another clock to measure against: then no
   // check. Their priors add to what is known of that shared shift (at most their sum).
   if (window_data_s < kTrustAfterS) return;
-  double information = time_offset_information;
-  const auto prior = [&](const double* block, double sigma) {
-    if (!monitor.estimated(problem, block)) return false;
-    if (sigma > 0.0) information += 1.0 / (sigma * sigma);
-    return true;
+  struct Offset {
+    const double* block;
+    double prior;  // its configured standard deviation [s]
+    const std::string& name;
   };
+  std::vector<Offset> offsets;
   for (std::size_t c = 0; c < calibration.cameras(); ++c) {
     const auto& cb = calibration.camera(c);
-    if (!prior(cb.time_offset, cb.prior.time_offset)) return;
+    offsets.push_back({cb.time_offset, cb.prior.time_offset, rig.cameras[c].name});
   }
   for (std::size_t i = 0; i < aux.size(); ++i) {
     const auto& a = calibration.aux(i);
-    if (!prior(a.time_offset, a.prior.time_offset)) return;
+    offsets.push_back({a.time_offset, a.prior.time_offset, rig.inertial[i + 1].name});
+  }
+  double information = time_offset_information;
+  for (const Offset& o : offsets) {
+    if (!monitor.estimated(problem, o.block)) return;
+    if (o.prior > 0.0) information += 1.0 / (o.prior * o.prior);
   }
   if (!(information > 0.0)) return;
   const double floor = 1.0 / std::sqrt(information);
   std::vector<std::string> under;
   double lowest = std::numeric_limits<double>::infinity();
-  const auto check = [&](const double* block, const std::string& name) {
-    if (!monitor.estimated(problem, block) || monitor.holds(block)) return;
-    const Eigen::MatrixXd c = tangent(block);
-    if (c.size() != 1 || !(c(0, 0) >= 0.0)) return;
+  for (const Offset& o : offsets) {
+    if (monitor.holds(o.block)) continue;
+    const Eigen::MatrixXd c = tangent(o.block);
+    if (c.size() != 1 || !(c(0, 0) >= 0.0)) continue;
     const double sigma = std::sqrt(c(0, 0));
-    if (sigma >= kFloorShare * floor) return;
-    under.push_back(name);
+    if (sigma >= kFloorShare * floor) continue;
+    under.push_back(o.name);
     lowest = std::min(lowest, sigma);
-  };
-  for (std::size_t c = 0; c < calibration.cameras(); ++c) {
-    check(calibration.camera(c).time_offset, rig.cameras[c].name);
-  }
-  for (std::size_t i = 0; i < aux.size(); ++i) {
-    check(calibration.aux(i).time_offset, rig.inertial[i + 1].name);
   }
   if (under.empty()) return;
   ++counters.time_offsets_under_floor;
