@@ -74,6 +74,7 @@ mvis_core_test(test_serial_worker test/unit/test_serial_worker.cpp)
 mvis_core_test(test_estimator_sensors test/unit/test_estimator_sensors.cpp)
 mvis_core_test(test_estimator_imu_intrinsics test/unit/test_estimator_imu_intrinsics.cpp)
 mvis_core_test(test_estimator_degenerate test/unit/test_estimator_degenerate.cpp)
+mvis_core_test(test_estimator_changes test/unit/test_estimator_changes.cpp)
 
 # A simulated VI-Rig bag for the replay rostest, made at build time: the VI-Rig with a second
 # auxiliary IMU (two aux IMUs and a gyroscope).

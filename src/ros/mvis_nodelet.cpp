@@ -424,6 +424,15 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   const Rig calibration = estimator_->calibration();
   if (u.solve.iterations > 0) estimate_log_.addCalibration(u.state.stamp_ns, calibration);
   estimate_log_.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
+  for (std::size_t i = 0; i < u.changes.size(); ++i) {
+    const CalibrationChange& c = u.changes[i];
+    estimate_log_.addChange(c.stamp_ns, c.sensor, c.quantity, c.size, c.size_sigma);
+    if (i == 0 || c.text != u.changes[i - 1].text) {
+      // Rare and important (a sensor moved): said each time, not throttled.
+      NODELET_WARN_STREAM("mvis: " << c.text);
+      last_change_ = c.text;
+    }
+  }
   for (const auto& cam : calibration.cameras) {
     transforms.push_back(
         stampedTransform(cam.T_cam_imu.inverse(), stamp, base, options_.frame_prefix + cam.name));
@@ -454,7 +463,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
     path_.poses.erase(path_.poses.begin(), path_.poses.begin() + 1000);
   }
   if (path_.poses.size() % 30 == 0) out_.path.publish(path_);
-  if (u.calibration_covariance_updated) publishCalibration();
+  if (u.calibration_covariance_updated || !u.changes.empty()) publishCalibration();
 }
 
 void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arrival) {
@@ -524,6 +533,16 @@ void MvisNodelet::publishCalibration() {
   msg.restarts = static_cast<std::uint32_t>(estimator_->counters().restarts);
   msg.last_restart_reason = restart.reason;
   if (!restart.reason.empty()) msg.last_restart = ros_conversions::toRosTime(restart.stamp_ns);
+  const std::vector<CalibrationChange> changes = estimator_->changes();
+  for (std::size_t i = 0; i < changes.size(); ++i) {
+    // One entry per declaration (its quantities share its text).
+    if (i > 0 && changes[i].stamp_ns == changes[i - 1].stamp_ns &&
+        changes[i].sensor == changes[i - 1].sensor) {
+      continue;
+    }
+    msg.changes.push_back(changes[i].text);
+    msg.change_stamps.push_back(ros_conversions::toRosTime(changes[i].stamp_ns));
+  }
   out_.calibration.publish(msg);
 }
 

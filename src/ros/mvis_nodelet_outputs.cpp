@@ -70,6 +70,8 @@ void MvisNodelet::publishDiagnostics() {
     add("held_intrinsics_misfits", std::to_string(c.held_intrinsics_misfits));
     add("sigma_inflation", std::to_string(estimator_->sigmaInflation()));
     add("stamps_implausible", std::to_string(c.stamps_implausible));
+    add("calibration_changes", std::to_string(c.calibration_changes));
+    if (!last_change_.empty()) add("last_calibration_change", last_change_);
     add("time_offset_floor_ms", std::to_string(estimator_->timeOffsetFloor() * 1e3));
     add("time_offsets_under_floor", std::to_string(c.time_offsets_under_floor));
     const std::string restart = estimator_->lastRestart().reason;

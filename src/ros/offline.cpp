@@ -132,18 +132,23 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
   };
 
   OfflineResult result;
-  estimator->setUpdateCallback([&result, &estimator, batch](const EstimatorUpdate& u) {
+  double bag_time = 0.0;  // of the message being read [s from the start]
+  estimator->setUpdateCallback([&result, &estimator, &bag_time, batch](const EstimatorUpdate& u) {
     result.update_ms.push_back(u.solve.total_s * 1e3);
     if (u.solve.iterations > 0 && !batch) {
       result.solve_iterations.push_back(u.solve.iterations);
       result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
     }
     result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
+    for (const auto& c : u.changes) {
+      result.log.addChange(c.stamp_ns, c.sensor, c.quantity, c.size, c.size_sigma);
+      result.changes.push_back(c);
+      result.change_bag_s.push_back(bag_time);
+    }
     result.unobservable.clear();
     for (const auto& d : u.unobservable) result.unobservable.push_back(d.text());
   });
   std::map<std::string, std::size_t> kinds;  // kind -> index in result.warning_kinds
-  double bag_time = 0.0;                     // of the message being read [s from the start]
   const auto note = [&](const std::string& message) {
     const auto [it, added] = kinds.emplace(kindOf(message), result.warning_kinds.size());
     if (added) result.warning_kinds.push_back({message, 0, bag_time});

@@ -500,6 +500,20 @@ int main(int argc, char** argv) {
                 1e3 * c.window_check_s / c.window_checks, c.window_checks);
   }
   if (batched) printBatch(r, o);
+  const mvis::OfflineResult& with_changes = batched ? online.value() : r;
+  const auto& changes = with_changes.changes;
+  if (changes.empty()) {
+    std::printf("\nno sensor's calibration changed during the recording");
+  }
+  for (std::size_t i = 0; i < changes.size(); ++i) {
+    // One line per declaration (its quantities share its text).
+    if (i > 0 && changes[i].stamp_ns == changes[i - 1].stamp_ns &&
+        changes[i].sensor == changes[i - 1].sensor) {
+      continue;
+    }
+    std::printf("\ncalibration change at %.2f s of the bag: %s", with_changes.change_bag_s[i],
+                changes[i].text.c_str());
+  }
   for (const std::string& u : r.unobservable) {
     std::printf("\nheld at the end (the motion could not calibrate it): %s", u.c_str());
   }

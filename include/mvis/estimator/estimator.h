@@ -242,6 +242,16 @@ struct EstimatorOptions {
   // in a frame kept is dropped (a wrong detection: on the EuRoC bag yac's detector put a few
   // corners 8-33 px off). 0: no frame or corner is dropped.
   double frame_gate_sigma = 10.0;
+  // With a board, whether each camera's frames are tested for a change of its calibration (a
+  // knocked mount, a camera whose clock was reset: src/core/estimator/change_detector.h): a
+  // likelihood-ratio test of "its extrinsic and time offset stepped to a new value" against
+  // "nothing changed", over up to 3 s of its residuals before they enter, at the noise level
+  // the data show. A camera found moved is named (Estimator::changes()), set to the value the
+  // test found, and re-opened: its priors become the defaults above (the configured *_std were
+  // its old mount's), the window's prior lets go of what it knew of the old value, and the
+  // failure checks and frame gate take the new value from then on. The other sensors keep
+  // theirs.
+  bool detect_changes = true;
   // While an inertial sensor's intrinsics are estimated with its gravity sensitivity Tg held
   // (estimate_gravity_sensitivity off, or held by name), a score test over the last
   // held_intrinsics_horizon_s [s] of its factors asks whether the data agree with the held Tg;
@@ -340,6 +350,22 @@ struct UnobservableCalibration {
   std::string text() const;
 };
 
+// A sensor's calibration found changed (EstimatorOptions::detect_changes), one entry per quantity
+// that moved.
+struct CalibrationChange {
+  TimeNs stamp_ns = 0;  // when it was declared (base clock)
+  TimeNs since_ns = 0;  // the start of the data that show it (base clock)
+  std::string sensor;   // cam1, ...
+  std::string quantity;  // "rotation", "translation", "time_offset"
+  // The change: [deg] for a rotation (the angle), [mm] for a translation (the norm), [ms] for a
+  // time offset (signed); and its size over its standard deviation (the Mahalanobis norm of the
+  // quantity's step under the data's and the former estimate's covariance).
+  double size = 0.0;
+  double size_sigma = 0.0;
+  // In plain words: "cam1 moved: rotation 1.20 deg (520 sigma), ...".
+  std::string text;
+};
+
 struct EstimatorUpdate {
   EstimatorState state;  // the newest window state
   // Covariance of [dtheta, dp] of the newest pose (right perturbation) when it was computed
@@ -352,6 +378,8 @@ struct EstimatorUpdate {
   PropagationAnchor anchor;
   // What the latest observability check found (observability_ratio); empty when all is.
   std::vector<UnobservableCalibration> unobservable;
+  // Changes of a sensor's calibration declared since the previous update (detect_changes).
+  std::vector<CalibrationChange> changes;
 };
 
 // One sensor's whitened residuals at the end of a batch (Estimator::solveBatch).
@@ -431,7 +459,8 @@ struct EstimatorCounters {
   long corners_rejected = 0;    // single corners beyond frame_gate_sigma in frames kept
   long inconsistencies = 0;     // intrinsics moved beyond what their covariance allows
   long held_intrinsics_misfits = 0;  // the data disagree with a held Tg (held_intrinsics_p)
-  long stamps_implausible = 0;  // frames and aux readings stamped far from the base IMU's time
+  long stamps_implausible = 0;
+  long calibration_changes = 0;  // sensors found moved (EstimatorOptions::detect_changes)  // frames and aux readings stamped far from the base IMU's time
   // covariances where a time offset's sigma was under 0.9 of Estimator::timeOffsetFloor()
   long time_offsets_under_floor = 0;
   // The degeneracy check of the window's information (window_observability_ratio): its runs and
@@ -489,6 +518,9 @@ class Estimator {
   // Drops everything and starts over from the trusted calibration (the latest that the failure
   // checks passed, with its covariance; EstimatorOptions::imu_max_gap_s).
   void reset();
+  // Every change of a sensor's calibration found so far, oldest first
+  // (EstimatorOptions::detect_changes).
+  std::vector<CalibrationChange> changes() const;
   // The last time the window started over from the trusted calibration (a gap or jump of the
   // base IMU's clock, a failure found after a solve, a reset) and why; reason empty if never.
   struct Restart {

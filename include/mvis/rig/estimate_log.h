@@ -31,6 +31,15 @@
 //   row-major 6x6 covariance of its tangent [dtheta (rad), dp (m)]: R = R_hat Exp(dtheta),
 //   p = p_hat + dp.
 //
+// calibration_changes.csv: one row per quantity of a sensor found changed (a knocked mount;
+// EstimatorOptions::detect_changes), header even when empty:
+//   stamp,sensor,quantity,size,size_sigma
+//   stamp        base-clock time when the change was declared [s]
+//   quantity     rotation | translation | time_offset
+//   size         the change: [deg] (angle), [mm] (norm), [ms] (signed)
+//   size_sigma   that change over its standard deviation
+// Nothing else writes rows there: a restart after a fault is not a change.
+//
 // A long live run stays bounded: past `max_rows` rows a table keeps the rows of every other
 // stamp (the whole run at half the time resolution) and goes on. The default, 20,000 rows
 // (~13 MB for calibration rows, ~8 MB for poses), keeps an hour of the VI-Rig (five calibrated
@@ -63,7 +72,12 @@ class EstimateLog {
   // The newest pose and its covariance (skipped when the covariance is not finite).
   void addPose(TimeNs stamp_ns, const SE3& T_G_I, const Eigen::Matrix<double, 6, 6>& covariance);
 
-  // Writes calibration.csv and pose_covariance.csv into `dir` (which must exist).
+  // A quantity of a sensor found changed (see calibration_changes.csv above).
+  void addChange(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
+                 double size, double size_sigma);
+
+  // Writes calibration.csv, pose_covariance.csv and calibration_changes.csv into `dir` (which
+  // must exist).
   Status write(const std::string& dir) const;
   // Writes the calibration rows alone to `path` (calibration.csv's columns).
   Status writeCalibration(const std::string& path) const;
@@ -89,6 +103,12 @@ class EstimateLog {
   std::vector<std::string> names_, kinds_;
   std::vector<CalibrationRow> calibration_;
   std::vector<PoseRow> poses_;
+  struct ChangeRow {
+    TimeNs stamp_ns;
+    std::string sensor, quantity;
+    double size, size_sigma;
+  };
+  std::vector<ChangeRow> changes_;
 };
 
 }  // namespace mvis

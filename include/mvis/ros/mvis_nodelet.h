@@ -138,6 +138,7 @@ class MvisNodelet : public nodelet::Nodelet {
   std::mutex estimator_mutex_;  // guards estimator_ and everything below it
   std::unique_ptr<Estimator> estimator_;
   std::string estimator_error_;  // the estimator's last complaint, for diagnostics
+  std::string last_change_;      // the last change of a sensor's calibration, for diagnostics
   EstimatorUpdate last_update_;
   bool have_update_ = false;
   // Calibration after every solve and pose covariances, for results; thinned past 5,000 rows a

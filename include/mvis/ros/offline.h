@@ -61,6 +61,9 @@ struct OfflineResult {
   std::vector<std::string> warnings;  // e.g. a sensor without any message in the bag
   // What the last update found unobservable and held (UnobservableCalibration::text()).
   std::vector<std::string> unobservable;
+  // Every change of a sensor's calibration declared (EstimatorOptions::detect_changes).
+  std::vector<CalibrationChange> changes;
+  std::vector<double> change_bag_s;  // when each was declared [s of bag time]
   // Every dropped message and every complaint of the estimator (a gap, a reset, a sensor that
   // left the window) by kind, in the order they first happened.
   std::vector<OfflineWarning> warning_kinds;

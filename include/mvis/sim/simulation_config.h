@@ -2,6 +2,7 @@
 // documented in config/sim_vi_rig/sim.yaml.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -14,6 +15,16 @@
 namespace mvis {
 
 enum class CameraOutput { kImages, kDetections };
+
+// A sensor that moves during the recording (a knocked mount): from `at_s` on, its extrinsic is
+// the true one moved by [rotation, translation] in its own frame (T_s_b' = Delta T_s_b for a
+// camera's T_cam_imu or an auxiliary sensor's T_i_b, Delta = (Exp(rotation), translation)).
+struct SensorMove {
+  std::string sensor;  // a camera's or auxiliary inertial sensor's name
+  double at_s = 0.0;   // [s] from the first sample; 0: the whole recording
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();   // rotation vector [rad]
+  Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();  // [m]
+};
 
 struct SimulationConfig {
   double duration_s = 60.0;
@@ -30,7 +41,11 @@ struct SimulationConfig {
   bool imu_noise = true;                     // white noise and bias random walks on inertial data
   int threads = 2;                 // images: rendering threads (same images for any number)
   PerturbationSizes perturbation;  // of the written initial guess
+  std::vector<SensorMove> moves;   // sensors that move during the recording
 };
+
+// The rig after the moves (the truth at the recording's end); an error names an unknown sensor.
+StatusOr<Rig> movedRig(const Rig& truth, const std::vector<SensorMove>& moves);
 
 // Parses the simulation yaml; `num_cameras` is the rig's, to check camera_rate_hz. Errors name
 // the file and key: "FILE: KEY: problem".

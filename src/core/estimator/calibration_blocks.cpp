@@ -25,14 +25,15 @@ CalibrationPrior calibrationPrior(double rotation, double translation, double ti
   return p;
 }
 
-// The configured prior of a block, unless the trusted calibration's joint prior covers it.
-void addPrior(ceres::Problem* problem, const TrustedCalibration& trusted,
-              ceres::CostFunction* configured, double* block) {
+// The configured prior of a block, unless the trusted calibration's joint prior covers it; its
+// id (null when covered).
+ceres::ResidualBlockId addPrior(ceres::Problem* problem, const TrustedCalibration& trusted,
+                                ceres::CostFunction* configured, double* block) {
   if (trusted.covers(block)) {
     delete configured;  // the trusted calibration's joint prior stands instead
-    return;
+    return nullptr;
   }
-  problem->AddResidualBlock(configured, nullptr, block);
+  return problem->AddResidualBlock(configured, nullptr, block);
 }
 
 ceres::CostFunction* timeOffsetPrior(double value, double std) {
@@ -85,6 +86,7 @@ CalibrationBlocks::CalibrationBlocks(const Rig& rig, const EstimatorOptions& opt
 void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration& trusted) {
   const EstimatorOptions& o = options_;
   fixed_.clear();
+  prior_ids_.clear();
   const auto fix = [&](double* block) {
     problem->SetParameterBlockConstant(block);
     fixed_.insert(block);
@@ -104,17 +106,19 @@ void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration&
       fix(b.time_offset);
     }
     if (!intrinsics) fix(b.intrinsics);
-    // Priors from the configuration's *_std keys, or the options' defaults.
+    // Priors from the configuration's *_std keys, or the options' defaults (also once the camera
+    // moved: the *_std keys were its old mount's).
     const auto& sd = rig_.cameras[c].std;
     b.prior = calibrationPrior(o.extrinsic_rotation_prior_rad, o.extrinsic_translation_prior_m,
-                               o.time_offset_prior_s, sd ? &sd->rotation : nullptr,
-                               sd ? &sd->translation : nullptr, sd ? sd->timeshift_cam_imu : 0.0);
-    addPrior(
+                               o.time_offset_prior_s, sd && !b.moved ? &sd->rotation : nullptr,
+                               sd && !b.moved ? &sd->translation : nullptr,
+                               sd && !b.moved ? sd->timeshift_cam_imu : 0.0);
+    prior_ids_[b.extrinsic] = addPrior(
         problem, trusted,
         PosePriorFactor::fromStd(poseToSE3(b.extrinsic), b.prior.rotation, b.prior.translation),
         b.extrinsic);
-    addPrior(problem, trusted, timeOffsetPrior(b.time_offset[0], b.prior.time_offset),
-             b.time_offset);
+    prior_ids_[b.time_offset] = addPrior(
+        problem, trusted, timeOffsetPrior(b.time_offset[0], b.prior.time_offset), b.time_offset);
     // Intrinsics: the configuration's *_std keys where they are positive, else the defaults.
     for (int i = 0; i < kIntrinsicsSize; ++i) {
       const double fallback = i < 2   ? o.intrinsics_focal_prior_px
@@ -163,6 +167,30 @@ void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration&
     addPrior(problem, trusted, timeOffsetPrior(a.time_offset[0], a.prior.time_offset),
              a.time_offset);
   }
+}
+
+void CalibrationBlocks::reopenCamera(std::size_t c, ceres::Problem* problem) {
+  CameraBlocks& b = *cameras_[c];
+  b.moved = true;
+  b.prior = calibrationPrior(options_.extrinsic_rotation_prior_rad,
+                             options_.extrinsic_translation_prior_m, options_.time_offset_prior_s,
+                             nullptr, nullptr, 0.0);
+  // Its standard deviations are the prior's until the next covariance.
+  if (camera_std_) {
+    (*camera_std_)[c].rotation.setZero();
+    (*camera_std_)[c].translation.setZero();
+    (*camera_std_)[c].timeshift_cam_imu = 0.0;
+  }
+  if (problem == nullptr) return;
+  for (double* block : {b.extrinsic, b.time_offset}) {
+    const auto id = prior_ids_.find(block);
+    if (id != prior_ids_.end() && id->second != nullptr) problem->RemoveResidualBlock(id->second);
+  }
+  prior_ids_[b.extrinsic] = problem->AddResidualBlock(
+      PosePriorFactor::fromStd(poseToSE3(b.extrinsic), b.prior.rotation, b.prior.translation),
+      nullptr, b.extrinsic);
+  prior_ids_[b.time_offset] = problem->AddResidualBlock(
+      timeOffsetPrior(b.time_offset[0], b.prior.time_offset), nullptr, b.time_offset);
 }
 
 Camera CalibrationBlocks::currentCamera(std::size_t c) const {

@@ -12,6 +12,7 @@
 #include <ceres/sphere_manifold.h>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -42,6 +43,8 @@ struct CameraBlocks {
   double time_offset[1];        // [s]
   double intrinsics[kIntrinsicsSize];
   CalibrationPrior prior;  // of the extrinsic and time offset
+  // The camera moved during the run (ChangeDetector): its priors are the options' defaults.
+  bool moved = false;
   // Of [fu fv pu pv k1 k2 k3 k4] (used when the intrinsics are estimated).
   Eigen::Matrix<double, kIntrinsicsSize, 1> intrinsics_prior =
       Eigen::Matrix<double, kIntrinsicsSize, 1>::Zero();
@@ -88,6 +91,11 @@ class CalibrationBlocks {
   const AuxCalibration& aux(std::size_t i) const { return *aux_[i]; }
   double* gravity() { return gravity_; }
 
+  // Camera c moved (change_detector.h): its extrinsic's and time offset's priors in `problem`
+  // become the options' defaults centred on their current values, for the rest of the run, and
+  // their standard deviations the prior's until the next covariance (null `problem`: for the
+  // next problem only).
+  void reopenCamera(std::size_t c, ceres::Problem* problem);
   // Camera c's time offset [ns].
   TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras_[c]->time_offset[0]); }
   // Camera c with its current intrinsics.
@@ -117,6 +125,9 @@ class CalibrationBlocks {
   std::vector<std::unique_ptr<CameraBlocks>> cameras_;
   std::vector<std::unique_ptr<AuxCalibration>> aux_;  // index sensor - 1
   std::set<const double*> fixed_;                     // fixedBlocks()
+  // The cameras' extrinsic and time offset priors in the problem (null: the trusted calibration's
+  // joint prior stands instead).
+  std::map<const double*, ceres::ResidualBlockId> prior_ids_;
   // In the problem, constant, and not held by the options (held whole by the motion, or by the
   // first batch).
   bool heldWholeByMotion(const ceres::Problem& problem, const double* block) const;

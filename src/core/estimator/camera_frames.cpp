@@ -68,7 +68,9 @@ CameraFrames::CameraFrames(const Rig& rig, const EstimatorOptions& options, Wind
       counters_(counters),
       waiting_(rig.cameras.size()),
       last_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()),
-      recent_(rig.cameras.size()) {
+      recent_(rig.cameras.size()),
+      misfit_entered_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()),
+      held_out_(rig.cameras.size(), false) {
   if (options.huber_sigma > 0.0) huber_ = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
 }
 
@@ -105,6 +107,7 @@ void CameraFrames::clear() {
   for (auto& q : waiting_) q.clear();
   std::fill(last_.begin(), last_.end(), std::numeric_limits<TimeNs>::min());
   last_entered_ = std::numeric_limits<TimeNs>::min();
+  std::fill(misfit_entered_.begin(), misfit_entered_.end(), std::numeric_limits<TimeNs>::min());
   // recent_ stays: a camera's residual level is the camera's, not the window's
   // (forgetResiduals() when the calibration starts over from the configured one).
 }
@@ -177,6 +180,30 @@ int CameraFrames::settleFirstBatch() {
   return changed;
 }
 
+void CameraFrames::addEvidence(const ceres::CostFunction& factor,
+                               const std::vector<double*>& blocks, const TagFrame& frame) {
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const std::size_t c = frame.camera;
+  CameraBlocks& cb = calibration_.camera(c);
+  const int n = factor.num_residuals();
+  if (n < 2) return;
+  Eigen::VectorXd r(n);
+  RowMajor J_extrinsic(n, kPoseSize), J_offset(n, 1);
+  std::vector<double*> jacobians(blocks.size(), nullptr);
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    if (blocks[i] == cb.extrinsic) jacobians[i] = J_extrinsic.data();
+    if (blocks[i] == cb.time_offset) jacobians[i] = J_offset.data();
+  }
+  if (!factor.Evaluate(const_cast<double* const*>(blocks.data()), r.data(), jacobians.data())) {
+    return;
+  }
+  // The pose block's first six columns are its tangent's (state_blocks.h).
+  Eigen::MatrixXd J(n, ChangeDetector::kDim);
+  J.leftCols(kPoseTangent) = J_extrinsic.leftCols(kPoseTangent);
+  J.col(kPoseTangent) = J_offset.col(0);
+  changes_->addFrame(c, frame.stamp_ns + calibration_.timeOffsetNs(c), r, J);
+}
+
 SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
   const State& sk = window_.state(k);
   const std::size_t c = frame.camera;
@@ -194,6 +221,10 @@ SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
 std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, std::size_t k,
                                                        bool initialized) {
   const std::size_t c = frame.camera;
+  if (held_out_[c]) {
+    if (!initialized) return {};
+    held_out_[c] = false;
+  }
   CameraBlocks& cb = calibration_.camera(c);
   double* gravity = calibration_.gravity();
   // The frame's pose comes from the readings around it: inside a gap they are made up.
@@ -313,6 +344,9 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   for (auto& [obs, landmark] : groups) {
     const bool gated = landmark == nullptr && initialized && options_.frame_gate_sigma > 0.0;
     TagReprojectionFactor* factor = make(gated ? obs : std::move(obs));
+    if (landmark == nullptr && initialized && changes_ != nullptr) {
+      addEvidence(*factor, blocks, frame);
+    }
     if (gated) {
       const std::vector<double> norms = cornerResiduals(*factor, blocks);
       const double median = medianOf(norms);
@@ -325,6 +359,10 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       const bool off = (gate_sigma_ > 0.0 && !(median <= gate_sigma_)) || !std::isfinite(median) ||
                        (median > kBaselineRatio * baseline && median > kBaselineFloor);
       if (!off) {
+        if (median > kBaselineFloor) {
+          misfit_entered_[c] =
+              std::max(misfit_entered_[c], frame.stamp_ns + calibration_.timeOffsetNs(c));
+        }
         recent.push_back(median);
         if (recent.size() > kBaselineFrames) recent.pop_front();
       } else {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "calibration_blocks.h"
+#include "change_detector.h"
 #include "imu_buffer.h"
 #include "imu_intrinsics.h"
 #include "landmarks.h"
@@ -56,6 +57,17 @@ class CameraFrames {
   // single corners over `sigma` (0: no such bound; the estimator sets options.frame_gate_sigma
   // once a calibration is trusted).
   void setGate(double sigma) { gate_sigma_ = sigma; }
+  // With a board, every frame the gate looks at (kept or dropped) is also evidence for `changes`
+  // (its residuals and their Jacobian in the camera's extrinsic and time offset); null: none.
+  void setChangeDetector(ChangeDetector* changes) { changes_ = changes; }
+  // Camera c moved and was re-opened: its recent residuals (the gate's baseline) are forgotten.
+  void forgetCamera(std::size_t c) { recent_.at(c).clear(); }
+  // The newest base time at which a frame of camera c entered the window with its corners'
+  // median residual over 2 sigma (lowest TimeNs: none since the window started).
+  TimeNs lastMisfitEntered(std::size_t c) const { return misfit_entered_.at(c); }
+  // Camera c's frames stay out of the next first batch (the window starts over because it
+  // moved: its new calibration is a guess until its frames inform it in the running window).
+  void holdOutOfFirstBatch(std::size_t c) { held_out_.at(c) = true; }
   // Without a board: frames owned by a state before `k` enter with the carried tags only (the
   // first batch's states that are cut to the window; 0: every tag, the default).
   void carriedTagsOnlyBefore(std::size_t k) { carried_only_before_ = k; }
@@ -96,6 +108,10 @@ class CameraFrames {
   // RobustLoss::kFrame). Used with RobustLoss::kFrame (the first batch's with kCorner are
   // batch_losses_).
   ceres::LossFunction* tagLoss(int tags);
+  // The frame's residuals and their Jacobian in its camera's [extrinsic tangent, time offset],
+  // to the change detector.
+  void addEvidence(const ceres::CostFunction& factor, const std::vector<double*>& blocks,
+                   const TagFrame& frame);
   // The camera's pose at the frame: state k's carried there with the readings.
   SE3 cameraPoseAt(const TagFrame& frame, std::size_t k) const;
 
@@ -120,8 +136,11 @@ class CameraFrames {
   std::vector<std::unique_ptr<ceres::LossFunctionWrapper>> batch_losses_;
   bool batch_settled_ = false;
   double gate_sigma_ = 0.0;
+  ChangeDetector* changes_ = nullptr;
   std::size_t carried_only_before_ = 0;
   std::vector<std::deque<double>> recent_;  // per camera, its entered frames' median residuals
+  std::vector<TimeNs> misfit_entered_;      // lastMisfitEntered()
+  std::vector<bool> held_out_;              // holdOutOfFirstBatch()
   std::string warning_;
   TimeNs last_entered_ = std::numeric_limits<TimeNs>::min();
 };

@@ -56,8 +56,10 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
       startup(rig, options, calibration, imu, counters),
       inertial_fit(rig, options, intrinsics),
+      changes(rig.cameras.size()),
       odometry(rig.inertial[0], options.imu_integration_step_s) {
   trusted.setConfigured(trustedBlocks(true));
+  if (options.detect_changes && rig.target && !options.batch) frames.setChangeDetector(&changes);
 }
 
 std::vector<estimator_internal::TrustedCalibration::Block> Estimator::Impl::trustedBlocks(
@@ -83,6 +85,7 @@ Status Estimator::Impl::plausibleStamp(const std::string& sensor, TimeNs t) {
 
 void Estimator::Impl::newProblem() {
   window.reset();
+  joint_prior_id = nullptr;
   frames.dropBatchLosses();
   prior.clear();
   landmarks.clear();
@@ -214,6 +217,7 @@ void Estimator::Impl::process() {
       addState(taken, t);
       frames.attachWaiting(initialized);
       aux.extend();
+      if (followChanges()) continue;  // the window started over with a moved camera
       SolveSummary summary;
       if (!options.batch && ++frames_since_solve >= options.solve_every) {
         const auto check_start = Clock::now();
@@ -399,6 +403,9 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
   if (propagation_callback) odometry.setAnchor(u.anchor);
   u.gravity_G = Eigen::Vector3d(calibration.gravity());
   u.unobservable = monitor.unobservable();
+  u.changes.assign(declared_changes.begin() + static_cast<long>(changes_published),
+                   declared_changes.end());
+  changes_published = declared_changes.size();
   u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
   if (!options.batch && options.covariance_every > 0 &&
       solves_since_covariance >= options.covariance_every) {
@@ -501,6 +508,7 @@ void Estimator::Impl::resetAll() {
   landmarks.resetPoseTags();
   aux.clear();
   inertial_fit.clear();
+  changes.clear();
   monitor.clear();  // after newProblem(): the old problem no longer uses its manifolds
   odometry.reset();
   initialized = false;
@@ -557,6 +565,7 @@ std::map<int, std::array<Eigen::Vector3d, 4>> Estimator::landmarks() const {
   return impl_->landmarks.corners();
 }
 const EstimatorCounters& Estimator::counters() const { return impl_->counters; }
+std::vector<CalibrationChange> Estimator::changes() const { return impl_->declared_changes; }
 Estimator::Restart Estimator::lastRestart() const {
   return {impl_->last_restart, impl_->last_restart_ns};
 }

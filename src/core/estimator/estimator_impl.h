@@ -15,6 +15,7 @@
 #include "aux_sensors.h"
 #include "calibration_blocks.h"
 #include "camera_frames.h"
+#include "change_detector.h"
 #include "imu_buffer.h"
 #include "imu_intrinsics.h"
 #include "inertial_fit.h"
@@ -50,6 +51,11 @@ struct Estimator::Impl {
   estimator_internal::Startup startup;
   estimator_internal::TrustedCalibration trusted;
   estimator_internal::InertialFit inertial_fit;
+  estimator_internal::ChangeDetector changes;
+  std::vector<CalibrationChange> declared_changes;
+  std::size_t changes_published = 0;  // of declared_changes, in an update
+  // The trusted calibration's joint prior in the problem (after a restart), null if none.
+  ceres::ResidualBlockId joint_prior_id = nullptr;
   // Output.
   UpdateCallback callback;
   PropagationCallback propagation_callback;
@@ -87,6 +93,10 @@ struct Estimator::Impl {
   // the other cameras' frames and the auxiliary states, a solve every solve_every frames, the
   // oldest state marginalized, an update published.
   void process();
+  // Tests each camera's recent frames for a change of its calibration, and re-opens the cameras
+  // found moved (EstimatorOptions::detect_changes); true if the window started over for it.
+  bool followChanges();
+  bool reopenCamera(const estimator_internal::ChangeDetector::Change& change);
   // A new window state at base time t, predicted from the newest with the readings, with its
   // IMU factor and the frame's factors.
   void addState(const TagFrame& frame, TimeNs t);

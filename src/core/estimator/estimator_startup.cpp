@@ -120,7 +120,7 @@ void Estimator::Impl::initialize() {
   applyStart();
   std::vector<double*> trusted_blocks;
   if (ceres::CostFunction* prior = trusted.jointPrior(&trusted_blocks)) {
-    window.problem()->AddResidualBlock(prior, nullptr, trusted_blocks);
+    joint_prior_id = window.problem()->AddResidualBlock(prior, nullptr, trusted_blocks);
   }
   for (std::size_t i = 0; i < n; ++i) {
     auto s = makeState(init[i].t);

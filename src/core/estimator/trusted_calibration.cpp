@@ -77,6 +77,59 @@ void TrustedCalibration::distrust(TimeNs t, TimeNs lookback) {
   while (history_.size() > 1 && history_.back().time > t - lookback) history_.pop_back();
 }
 
+void TrustedCalibration::forget(const std::vector<const double*>& blocks) {
+  pending_ = Snapshot();
+  last_ = Snapshot();
+  forget(blocks, &configured_);
+  for (Snapshot& s : history_) forget(blocks, &s);
+}
+
+void TrustedCalibration::forget(const std::vector<const double*>& blocks, Snapshot* s) {
+  const auto forgotten = [&](const Block& b) {
+    return std::find(blocks.begin(), blocks.end(), b.x) != blocks.end();
+  };
+  for (Block& b : s->blocks) {
+    if (forgotten(b)) b.values.assign(b.x, b.x + b.ambient);
+  }
+  if (s->joint.empty()) return;
+  // The others' joint covariance: the rows and columns of the forgotten blocks dropped.
+  const Eigen::MatrixXd C =
+      s->directions * s->std.cwiseAbs2().asDiagonal() * s->directions.transpose();
+  std::vector<int> rows;
+  std::vector<std::size_t> joint;
+  std::vector<Eigen::MatrixXd> marginal_directions, marginal;
+  std::vector<Eigen::VectorXd> marginal_std;
+  for (std::size_t k = 0, offset = 0; k < s->joint.size(); ++k) {
+    const Block& b = s->blocks[s->joint[k]];
+    const int n = tangentSize(b);
+    if (!forgotten(b)) {
+      for (int i = 0; i < n; ++i) rows.push_back(static_cast<int>(offset) + i);
+      joint.push_back(s->joint[k]);
+      marginal_directions.push_back(s->marginal_directions[k]);
+      marginal_std.push_back(s->marginal_std[k]);
+      marginal.push_back(s->marginal[k]);
+    }
+    offset += static_cast<std::size_t>(n);
+  }
+  if (joint.size() == s->joint.size()) return;
+  Eigen::MatrixXd kept(rows.size(), rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (std::size_t j = 0; j < rows.size(); ++j) kept(i, j) = C(rows[i], rows[j]);
+  }
+  s->joint = std::move(joint);
+  s->marginal_directions = std::move(marginal_directions);
+  s->marginal_std = std::move(marginal_std);
+  s->marginal = std::move(marginal);
+  if (s->joint.empty() || !factor(kept, &s->directions, &s->std)) {
+    s->joint.clear();
+    s->directions.resize(0, 0);
+    s->std.resize(0);
+    s->marginal_directions.clear();
+    s->marginal_std.clear();
+    s->marginal.clear();
+  }
+}
+
 TrustedCalibration::Verdict TrustedCalibration::offer(std::vector<Block> blocks,
                                                       const Eigen::MatrixXd& C, TimeNs t) {
   Snapshot p;

@@ -115,6 +115,11 @@ class TrustedCalibration {
     pending_ = Snapshot();
     last_ = Snapshot();
   }
+  // These blocks' sensor moved (change_detector.h): every calibration kept takes their current
+  // values without a covariance (theirs was the old mount's; the joint covariance of the others
+  // is their marginal, the rows and columns of these dropped), and the pending offer goes. Their
+  // priors after a restart are then their configured ones (CalibrationBlocks::reopenCamera).
+  void forget(const std::vector<const double*>& blocks);
   // A block entry with the block's current values; estimated if `problem` (null: none, the
   // configured calibration) has the block and does not hold it constant.
   static Block make(std::string name, double* x, int ambient, const ceres::Manifold* manifold,
@@ -151,6 +156,8 @@ class TrustedCalibration {
   };
 
   const Snapshot& trusted() const { return history_.empty() ? configured_ : history_.back(); }
+  // forget() in one snapshot.
+  static void forget(const std::vector<const double*>& blocks, Snapshot* s);
   // The largest whitened step of the blocks' values in `to` (null: their current values) from
   // `from`'s, by `from`'s marginal covariances, over the square root of the inflation; its
   // block's name. Intrinsics blocks count only if `intrinsics`.

@@ -1,5 +1,6 @@
 #include "window_prior.h"
 
+#include <algorithm>
 #include <set>
 
 namespace mvis {
@@ -25,6 +26,25 @@ StatusOr<std::unique_ptr<MarginalizationFactor>> WindowPrior::marginalize(
   }
   for (const auto& [block, held] : uninformative) m.setUninformative(block, held);
   return m.marginalize(std::set<const double*>(leaving.begin(), leaving.end()));
+}
+
+Status WindowPrior::release(ceres::Problem* problem, const std::set<const double*>& blocks,
+                            const ManifoldOf& manifold_of) {
+  if (!whole_) return Status::Ok();
+  const std::vector<double*> held = whole_->parameterBlocks();
+  if (std::none_of(held.begin(), held.end(), [&](double* b) { return blocks.count(b) > 0; })) {
+    return Status::Ok();
+  }
+  Marginalizer m;
+  m.allowSemidefinite();
+  if (whole_->J0().rows() == 0) m.informationOnly();
+  for (double* block : held) m.setManifold(block, manifold_of(block));
+  m.addPrior(whole_.get());
+  auto made = m.marginalize(blocks);
+  if (!made.ok()) return made.status();
+  removeFrom(problem);
+  install(problem, std::move(made).value());
+  return Status::Ok();
 }
 
 void WindowPrior::removeFrom(ceres::Problem* problem) {

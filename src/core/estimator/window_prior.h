@@ -41,6 +41,12 @@ class WindowPrior {
       const ManifoldOf& manifold_of, const std::map<const double*, Eigen::MatrixXd>& uninformative,
       const std::set<const double*>& fixed, const std::set<const double*>& alone = {},
       bool semidefinite = false, bool rows = true) const;
+  // What the prior knows of `blocks` is let go (their sensor moved: what earlier measurements
+  // told of them was of the old mount): they are marginalized out of it, so that it keeps what
+  // those measurements told of the rest through them, and the prior in the problem is replaced.
+  // Nothing changes when the prior does not hold them.
+  Status release(ceres::Problem* problem, const std::set<const double*>& blocks,
+                 const ManifoldOf& manifold_of);
   // Removes the current prior's rows from the problem and forgets it.
   void removeFrom(ceres::Problem* problem);
   // Adds a new prior to the problem, one residual block per row group (Ceres's J^T J of the dense

@@ -140,7 +140,24 @@ Status EstimateLog::write(const std::string& dir) const {
     std::fputc('\n', file);
   }
   if (std::fclose(file) != 0) return Status::Error(pose_path + ": cannot write");
+  const std::string changes_path = dir + "/calibration_changes.csv";
+  file = std::fopen(changes_path.c_str(), "w");
+  if (!file) return Status::Error(changes_path + ": cannot write");
+  std::fputs("stamp,sensor,quantity,size,size_sigma\n", file);
+  for (const ChangeRow& row : changes_) {
+    writeStamp(file, row.stamp_ns);
+    std::fprintf(file, ",%s,%s", row.sensor.c_str(), row.quantity.c_str());
+    writeNumber(file, row.size);
+    writeNumber(file, row.size_sigma);
+    std::fputc('\n', file);
+  }
+  if (std::fclose(file) != 0) return Status::Error(changes_path + ": cannot write");
   return Status::Ok();
+}
+
+void EstimateLog::addChange(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
+                            double size, double size_sigma) {
+  changes_.push_back({stamp_ns, sensor, quantity, size, size_sigma});
 }
 
 Status EstimateLog::writeCalibration(const std::string& calibration_path) const {

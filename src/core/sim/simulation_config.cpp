@@ -52,7 +52,7 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
     entry.rejectUnknownKeys({"duration_s", "seed", "start_time_s", "motion", "height_m",
                              "amplitude", "camera_rate_hz", "camera_output", "pixel_noise_px",
                              "image_noise_sigma", "supersample", "threads", "imu_noise", "board",
-                             "image_blur_px", "perturbation"});
+                             "image_blur_px", "perturbation", "moves"});
     SimulationConfig c;
     if (entry.has("duration_s")) c.duration_s = entry.positiveNumber("duration_s");
     if (entry.has("seed")) {
@@ -109,8 +109,49 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
       c.imu_noise = flag == "true";
     }
     if (entry.has("perturbation")) c.perturbation = readPerturbation(entry.child("perturbation"));
+    if (entry.has("moves")) {
+      const YAML::Node moves = rig_io::parseYamlText(yaml_text, path)["moves"];
+      if (!moves.IsMap()) entry.fail("moves", "expected a mapping of sensor names");
+      for (const auto& item : moves) {
+        SensorMove m;
+        m.sensor = item.first.as<std::string>();
+        const EntryReader move(item.second, path, "moves: " + m.sensor);
+        move.rejectUnknownKeys({"at_s", "rotation_deg", "translation_m"});
+        m.at_s = nonNegative(move, "at_s", 0.0);
+        if (move.has("rotation_deg")) m.rotation_rad = move.vector("rotation_deg", 3) * kDegree;
+        if (move.has("translation_m")) m.translation_m = move.vector("translation_m", 3);
+        c.moves.push_back(m);
+      }
+    }
     return c;
   });
+}
+
+StatusOr<Rig> movedRig(const Rig& truth, const std::vector<SensorMove>& moves) {
+  Rig out = truth;
+  for (const SensorMove& m : moves) {
+    const SE3 delta(Eigen::Quaterniond(Eigen::AngleAxisd(
+                        m.rotation_rad.norm(), m.rotation_rad.norm() > 0.0
+                                                   ? Eigen::Vector3d(m.rotation_rad.normalized())
+                                                   : Eigen::Vector3d::UnitX())),
+                    m.translation_m);
+    bool found = false;
+    for (auto& cam : out.cameras) {
+      if (cam.name != m.sensor) continue;
+      cam.T_cam_imu = delta * cam.T_cam_imu;
+      found = true;
+    }
+    for (std::size_t i = 1; i < out.inertial.size(); ++i) {
+      if (out.inertial[i].name != m.sensor) continue;
+      out.inertial[i].T_i_b = delta * out.inertial[i].T_i_b;
+      found = true;
+    }
+    if (!found) {
+      return Status::Error("moves: " + m.sensor +
+                           ": no camera or auxiliary inertial sensor of that name in the rig");
+    }
+  }
+  return out;
 }
 
 StatusOr<SimulationConfig> loadSimulationConfig(const std::string& path, std::size_t num_cameras) {
