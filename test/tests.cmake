@@ -96,6 +96,19 @@ add_custom_target(mvis_replay_data DEPENDS ${MVIS_REPLAY_DATA}/sim.bag)
 add_dependencies(tests mvis_replay_data)
 add_rostest(test/ros/replay.test ARGS data:=${MVIS_REPLAY_DATA}
   DEPENDENCIES mvis_ros mvis_node mvis_replay_data)
+# The knock rostest's bag: 16 s of the VI-Rig whose cam1 is knocked at 9 s (truth_start/ is the
+# calibration before, truth/ after).
+set(MVIS_KNOCK_DATA ${CMAKE_BINARY_DIR}/test_data/knock)
+add_custom_command(OUTPUT ${MVIS_KNOCK_DATA}/sim.bag
+  COMMAND ${CMAKE_COMMAND} -E remove_directory ${MVIS_KNOCK_DATA}
+  COMMAND mvis_simulate --rig ${PROJECT_SOURCE_DIR}/config/sim_vi_rig
+          --sim ${PROJECT_SOURCE_DIR}/test/ros/knock_sim.yaml --output ${MVIS_KNOCK_DATA}
+          --detections
+  DEPENDS mvis_simulate ${PROJECT_SOURCE_DIR}/test/ros/knock_sim.yaml)
+add_custom_target(mvis_knock_data DEPENDS ${MVIS_KNOCK_DATA}/sim.bag)
+add_dependencies(tests mvis_knock_data)
+add_rostest(test/ros/knock.test ARGS data:=${MVIS_KNOCK_DATA}
+  DEPENDENCIES mvis_ros mvis_node mvis_knock_data)
 # The same bag without the board's aprilgrid.yaml: tag corners as landmarks.
 set(MVIS_NOBOARD_CONFIG ${CMAKE_BINARY_DIR}/test_data/replay_noboard_config)
 add_custom_command(OUTPUT ${MVIS_NOBOARD_CONFIG}/kalibr_imu_chain.yaml

@@ -103,6 +103,7 @@ void MvisNodelet::onInit() {
     eo.imu_max_gap_s = options_.imu_max_gap_s;
     eo.failure_step_sigma = options_.failure_step_sigma;
     eo.frame_gate_sigma = options_.frame_gate_sigma;
+    eo.detect_changes = options_.detect_changes;
     eo.held_intrinsics_p = options_.held_intrinsics_p;
     eo.estimate_extrinsics = options_.estimate_extrinsics;
     eo.estimate_time_offsets = options_.estimate_time_offsets;

@@ -28,6 +28,7 @@ NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   nh.param("imu_max_gap", o.imu_max_gap_s, o.imu_max_gap_s);
   nh.param("failure_step_sigma", o.failure_step_sigma, o.failure_step_sigma);
   nh.param("frame_gate_sigma", o.frame_gate_sigma, o.frame_gate_sigma);
+  nh.param("detect_changes", o.detect_changes, o.detect_changes);
   nh.param("held_intrinsics_p", o.held_intrinsics_p, o.held_intrinsics_p);
   nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
   nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);

@@ -134,8 +134,15 @@ StatusOr<SimulationBagSummary> writeSimulationBag(const Rig& truth, const Simula
   fs::create_directories(out, error);
   if (error) return Status::Error(output_dir + ": cannot create: " + error.message());
 
-  Status status = saveRig(truth, (out / "truth").string());
+  // With sensors that move, truth/ is the rig at the end and truth_start/ the rig before.
+  const auto moved = movedRig(truth, config.moves);
+  if (!moved.ok()) return moved.status();
+  Status status = saveRig(moved.value(), (out / "truth").string());
   if (!status.ok()) return status;
+  if (!config.moves.empty()) {
+    status = saveRig(truth, (out / "truth_start").string());
+    if (!status.ok()) return status;
+  }
   status = saveRig(perturbRig(truth, config.perturbation, config.seed), (out / "config").string());
   if (!status.ok()) return status;
 

@@ -9,7 +9,8 @@
 //              [--estimate-intrinsics] [--estimate-imu-intrinsics]
 //              [--estimate-gravity-sensitivity] [--fixed-imu-linearization]
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
-//              [--failure-step-sigma S] [--frame-gate-sigma S] [--batch [--batch-iterations N]]
+//              [--failure-step-sigma S] [--frame-gate-sigma S] [--no-change-detection]
+//              [--batch [--batch-iterations N]]
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -51,6 +52,7 @@ int usage(const char* message) {
                "                    [--imu-step S]\n"
                "                    [--hold SENSOR.QUANTITY]...\n"
                "                    [--failure-step-sigma S] [--frame-gate-sigma S]\n"
+               "                    [--no-change-detection]\n"
                "                    [--batch [--batch-iterations N]\n"
                "                             [--batch-covariance clustered|model]]\n"
                "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
@@ -108,6 +110,8 @@ int usage(const char* message) {
                "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
                "                   where the trusted estimate puts them are dropped, and so\n"
                "                   are single corners beyond it (default 10, 0: off)\n"
+               "  --no-change-detection  do not test the sensors for a changed calibration\n"
+               "                   (a knocked mount; on by default, with a board)\n"
                "  --batch          after the online pass, solve every state of the recording\n"
                "                   and the calibration at once from its result (the same\n"
                "                   factors and priors), with the batch's covariance; the\n"
@@ -188,6 +192,7 @@ int main(int argc, char** argv) {
   double huber = mvis::EstimatorOptions{}.huber_sigma;
   mvis::RobustLoss robust_loss = mvis::EstimatorOptions{}.robust_loss;
   bool propagation_noise = false;
+  bool detect_changes = true;
   double imu_step = mvis::EstimatorOptions{}.imu_integration_step_s;
   double max_solve_time = 1e3;
   int window = mvis::EstimatorOptions{}.window_size;
@@ -292,6 +297,8 @@ int main(int argc, char** argv) {
       imu_step = std::atof(v.c_str());
     } else if (arg == "--propagation-noise") {
       propagation_noise = true;
+    } else if (arg == "--no-change-detection") {
+      detect_changes = false;
     } else if (arg == "--hold") {
       std::string v;
       if (!value(&v)) return usage("--hold takes SENSOR.QUANTITY, e.g. cam1.intrinsics");
@@ -352,6 +359,7 @@ int main(int argc, char** argv) {
   options.estimator.huber_sigma = huber;
   options.estimator.robust_loss = robust_loss;
   options.estimator.propagation_noise = propagation_noise;
+  options.estimator.detect_changes = detect_changes;
   options.estimator.imu_integration_step_s = imu_step;
   options.estimator.window_size = window;
   options.estimator.carried_tags = carried_tags;
@@ -547,7 +555,7 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
-      "calibration.csv, pose_covariance.csv%s)\n",
+      "calibration.csv, pose_covariance.csv, calibration_changes.csv%s)\n",
       output_dir.c_str(),
       batched ? ", corner_residuals.csv, inertial_residuals.csv, calibration_model.csv with "
                 "--batch-covariance clustered; the online pass's in online/"

@@ -21,7 +21,8 @@ struct FaultOutcome {
   // time offset [ms] (the norm of the per-axis standard deviations).
   std::vector<Eigen::Vector3d> sigmas;
   EstimatorCounters counters;
-  std::vector<std::string> warnings;  // every distinct status message
+  std::vector<std::string> warnings;       // every distinct status message
+  std::vector<CalibrationChange> changes;  // every change of a sensor's calibration declared
   bool initialized = false;
   // The worst translation error [mm], rotation [deg] and time offset [ms], and the largest error
   // over sigma of any element.
@@ -83,6 +84,7 @@ inline FaultOutcome runWithFaults(const SimRun& run, const std::string& faults,
   feedWithFaults(run, parsed, estimator.get(), &out.warnings);
   out.initialized = estimator->initialized();
   out.counters = estimator->counters();
+  out.changes = estimator->changes();
   if (!out.initialized) return out;
   EXPECT_TRUE(estimator->computeCovariance().ok());
   const Rig rig = estimator->calibration();

@@ -339,6 +339,9 @@ TgRun runTg(const SimRun& run, const EstimatorOptions& options, const char* what
   if (estimator == nullptr) return out;
   out.estimate = estimator->calibration();
   out.counters = estimator->counters();
+  // No sensor moved: none is declared moved (a gyroscope's gravity sensitivity is no change).
+  EXPECT_EQ(out.counters.calibration_changes, 0)
+      << what << ": " << (estimator->changes().empty() ? "" : estimator->changes().front().text);
   out.ratios = sigmaRatios(run.truth, out.estimate);
   for (double r : out.ratios) {
     out.rms += r * r;

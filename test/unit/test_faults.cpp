@@ -90,6 +90,7 @@ TEST_P(FaultSuite, EndsAsCleanAndSaysWhatHappened) {
   // A fault is not a change of the rig: no sensor is declared moved (a drifting clock is a
   // ramp, not a step; change_detector.h).
   EXPECT_EQ(o.counters.calibration_changes, 0) << f.name;
+  for (const auto& c : o.changes) ADD_FAILURE() << f.name << ": " << c.text;
   expectAsClean(o, f.name);
 }
 

@@ -72,5 +72,37 @@ TEST(SimulationConfig, RefusesBadFilesNamingTheKey) {
   EXPECT_EQ(error("duration_s: 5\n"), "sim.yaml: camera_rate_hz: missing");
 }
 
+// Sensors that move: read by name, in degrees and metres; an unknown key or sensor is refused.
+TEST(SimulationConfig, ReadsMovesAndRefusesUnknownSensors) {
+  const auto config = parseSimulationConfig(
+      kValid + "moves:\n  cam1: {at_s: 12.5, rotation_deg: [0, 0, 1.5], translation_m: [0.005, 0, "
+               "0]}\n",
+      "sim.yaml", 2);
+  ASSERT_TRUE(config.ok()) << config.status().message();
+  ASSERT_EQ(config.value().moves.size(), 1u);
+  const SensorMove& m = config.value().moves[0];
+  EXPECT_EQ(m.sensor, "cam1");
+  EXPECT_EQ(m.at_s, 12.5);
+  EXPECT_NEAR(m.rotation_rad.z(), 1.5 * M_PI / 180.0, 1e-15);
+  EXPECT_EQ(m.translation_m, Eigen::Vector3d(0.005, 0.0, 0.0));
+  EXPECT_EQ(error(kValid + "moves:\n  cam1: {at: 3}\n"),
+            "sim.yaml: moves: cam1: at: unknown key (a typo? see doc/conventions.md for the keys "
+            "of this file)");
+  Rig rig;
+  rig.cameras.resize(1);
+  rig.cameras[0].name = "cam0";
+  const auto moved = movedRig(rig, config.value().moves);
+  ASSERT_FALSE(moved.ok());
+  EXPECT_EQ(moved.status().message(),
+            "moves: cam1: no camera or auxiliary inertial sensor of that name in the rig");
+  // The move itself: T_cam_imu' = Delta T_cam_imu.
+  rig.cameras[0].name = "cam1";
+  const auto ok = movedRig(rig, config.value().moves);
+  ASSERT_TRUE(ok.ok());
+  EXPECT_NEAR(ok.value().cameras[0].T_cam_imu.p.x(), 0.005, 1e-15);
+  EXPECT_NEAR(Eigen::AngleAxisd(ok.value().cameras[0].T_cam_imu.q).angle(), 1.5 * M_PI / 180.0,
+              1e-12);
+}
+
 }  // namespace
 }  // namespace mvis

@@ -35,6 +35,7 @@ struct NodeletOptions {
   int min_tags = 2;                    // tags a frame needs with a board (1 without)
   double imu_max_gap_s = 0.03;  // [s] longer base-IMU holes restart from the trusted calibration
   double failure_step_sigma = 10.0;       // [sigma] calibration step that is a failure, 0: off
+  bool detect_changes = true;             // a sensor that moved is found and re-calibrated
   double frame_gate_sigma = 10.0;         // [pixel_sigma] frames this far off are dropped, 0: off
   double held_intrinsics_p = 1e-4;        // false-alarm rate of the held-Tg test, 0: off
   bool estimate_extrinsics = true;        // camera-IMU extrinsics

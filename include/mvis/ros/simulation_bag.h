@@ -5,7 +5,9 @@
 //                      mvis/TagDetectionArray on <rostopic>/tag_detections; every stamp in the
 //                      sensor's own clock
 //   OUTPUT/truth/      the true kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, aprilgrid.yaml,
-//                      and trajectory.tum (imu0 in the world at its sample times)
+//                      and trajectory.tum (imu0 in the world at its sample times); with sensors
+//                      that move (SimulationConfig::moves), the rig at the end
+//   OUTPUT/truth_start/  with sensors that move, the rig before they do
 //   OUTPUT/config/     the same files perturbed: a user's rough initial guess
 #pragma once
 

@@ -18,12 +18,14 @@ enum class CameraOutput { kImages, kDetections };
 
 // A sensor that moves during the recording (a knocked mount): from `at_s` on, its extrinsic is
 // the true one moved by [rotation, translation] in its own frame (T_s_b' = Delta T_s_b for a
-// camera's T_cam_imu or an auxiliary sensor's T_i_b, Delta = (Exp(rotation), translation)).
+// camera's T_cam_imu or an auxiliary sensor's T_i_b, Delta = (Exp(rotation), translation)), and
+// its time offset (timeshift_cam_imu, time_offset) is the true one plus time_offset_s.
 struct SensorMove {
   std::string sensor;  // a camera's or auxiliary inertial sensor's name
   double at_s = 0.0;   // [s] from the first sample; 0: the whole recording
   Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();   // rotation vector [rad]
   Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();  // [m]
+  double time_offset_s = 0.0;  // added to its time offset (a clock reset) [s]
 };
 
 struct SimulationConfig {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "calibration_blocks.h"
+#include "change_detector.h"
 #include "imu_buffer.h"
 #include "imu_intrinsics.h"
 #include "observability_monitor.h"
@@ -27,8 +28,8 @@ namespace estimator_internal {
 
 class AuxSensors {
  public:
-  AuxSensors(const Rig& rig, const EstimatorOptions& options, const ImuBuffer& base,
-             Window& window, CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
+  AuxSensors(const Rig& rig, const EstimatorOptions& options, const ImuBuffer& base, Window& window,
+             CalibrationBlocks& calibration, ImuIntrinsicsBlocks& intrinsics,
              ObservabilityMonitor& monitor, EstimatorCounters& counters);
 
   std::size_t size() const { return streams_.size(); }
@@ -48,6 +49,12 @@ class AuxSensors {
   // sensitivity: specificForce()), not only from the newest state on.
   bool needsBaseReadings() const;
   void clear();
+  // Every reading of a running chain is also evidence for `changes` (addEvidence), sensor s in
+  // slot first_slot + s - 1; null: none.
+  void setChangeDetector(ChangeDetector* changes, std::size_t first_slot) {
+    changes_ = changes;
+    first_slot_ = first_slot;
+  }
   // A warning for the caller (a sensor left the window), once; empty if none.
   std::string takeWarning();
 
@@ -72,6 +79,11 @@ class AuxSensors {
   };
 
   void extend(Stream& a);
+  // Sensor a's readings over (from.t, to] (base clock) to the change detector: each against the
+  // base IMU's reading at its time carried to it through the current extrinsic (rates, and for
+  // an IMU specific force with the lever arm), at the state `from`'s biases, the sensor's biases
+  // and time offset its nuisance parameters.
+  void addEvidence(const Stream& a, const State& from, TimeNs to);
   // Starts a chain at window states k0..k1 (k1 > k0), all covered by its readings.
   void startChain(Stream& a, std::size_t k0, std::size_t k1);
   // Appends the state at window state k to the chain ending at k - 1.
@@ -104,6 +116,8 @@ class AuxSensors {
   ImuIntrinsicsBlocks& intrinsics_;
   ObservabilityMonitor& monitor_;
   EstimatorCounters& counters_;
+  ChangeDetector* changes_ = nullptr;
+  std::size_t first_slot_ = 0;
   std::vector<std::unique_ptr<Stream>> streams_;  // index sensor - 1
   std::string warning_;
 };

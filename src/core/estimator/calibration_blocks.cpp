@@ -151,21 +151,14 @@ void CalibrationBlocks::addTo(ceres::Problem* problem, const TrustedCalibration&
     if (!o.estimate_aux_time_offsets || heldByOption(o, config.name, "time_offset")) {
       fix(a.time_offset);
     }
-    const auto& sd = config.std;
+    const auto& sd = a.moved ? std::optional<InertialCalibrationStd>() : config.std;
     a.prior = calibrationPrior(o.aux_rotation_prior_rad, o.aux_translation_prior_m,
                                o.aux_time_offset_prior_s, sd ? &sd->rotation : nullptr,
                                sd ? &sd->translation : nullptr, sd ? sd->time_offset : 0.0);
-    if (a.gyro) {
-      addPrior(problem, trusted,
-               new RotationPriorFactor(poseRotation(a.rotation), a.prior.rotation), a.rotation);
-    } else {
-      addPrior(
-          problem, trusted,
-          PosePriorFactor::fromStd(poseToSE3(a.extrinsic), a.prior.rotation, a.prior.translation),
-          a.extrinsic);
-    }
-    addPrior(problem, trusted, timeOffsetPrior(a.time_offset[0], a.prior.time_offset),
-             a.time_offset);
+    prior_ids_[a.extrinsicBlock()] =
+        addPrior(problem, trusted, auxExtrinsicPrior(a), a.extrinsicBlock());
+    prior_ids_[a.time_offset] = addPrior(
+        problem, trusted, timeOffsetPrior(a.time_offset[0], a.prior.time_offset), a.time_offset);
   }
 }
 
@@ -181,16 +174,45 @@ void CalibrationBlocks::reopenCamera(std::size_t c, ceres::Problem* problem) {
     (*camera_std_)[c].translation.setZero();
     (*camera_std_)[c].timeshift_cam_imu = 0.0;
   }
-  if (problem == nullptr) return;
-  for (double* block : {b.extrinsic, b.time_offset}) {
+  replacePriors(
+      problem, b.extrinsic,
+      PosePriorFactor::fromStd(poseToSE3(b.extrinsic), b.prior.rotation, b.prior.translation),
+      b.time_offset, timeOffsetPrior(b.time_offset[0], b.prior.time_offset));
+}
+
+void CalibrationBlocks::reopenAux(std::size_t i, ceres::Problem* problem) {
+  AuxCalibration& a = *aux_[i];
+  a.moved = true;
+  a.prior = calibrationPrior(options_.aux_rotation_prior_rad, options_.aux_translation_prior_m,
+                             options_.aux_time_offset_prior_s, nullptr, nullptr, 0.0);
+  if (a.std) {
+    a.std->rotation.setZero();
+    a.std->translation.setZero();
+    a.std->time_offset = 0.0;
+  }
+  replacePriors(problem, a.extrinsicBlock(), auxExtrinsicPrior(a), a.time_offset,
+                timeOffsetPrior(a.time_offset[0], a.prior.time_offset));
+}
+
+ceres::CostFunction* CalibrationBlocks::auxExtrinsicPrior(const AuxCalibration& a) {
+  if (a.gyro) return new RotationPriorFactor(poseRotation(a.rotation), a.prior.rotation);
+  return PosePriorFactor::fromStd(poseToSE3(a.extrinsic), a.prior.rotation, a.prior.translation);
+}
+
+void CalibrationBlocks::replacePriors(ceres::Problem* problem, double* extrinsic,
+                                      ceres::CostFunction* extrinsic_prior, double* time_offset,
+                                      ceres::CostFunction* time_offset_prior) {
+  if (problem == nullptr) {
+    delete extrinsic_prior;
+    delete time_offset_prior;
+    return;
+  }
+  for (double* block : {extrinsic, time_offset}) {
     const auto id = prior_ids_.find(block);
     if (id != prior_ids_.end() && id->second != nullptr) problem->RemoveResidualBlock(id->second);
   }
-  prior_ids_[b.extrinsic] = problem->AddResidualBlock(
-      PosePriorFactor::fromStd(poseToSE3(b.extrinsic), b.prior.rotation, b.prior.translation),
-      nullptr, b.extrinsic);
-  prior_ids_[b.time_offset] = problem->AddResidualBlock(
-      timeOffsetPrior(b.time_offset[0], b.prior.time_offset), nullptr, b.time_offset);
+  prior_ids_[extrinsic] = problem->AddResidualBlock(extrinsic_prior, nullptr, extrinsic);
+  prior_ids_[time_offset] = problem->AddResidualBlock(time_offset_prior, nullptr, time_offset);
 }
 
 Camera CalibrationBlocks::currentCamera(std::size_t c) const {

@@ -59,6 +59,7 @@ struct AuxCalibration {
   double time_offset[1];           // [s], t_imu0 = t_i + time_offset
   CalibrationPrior prior;          // of the extrinsic (or rotation) and time offset
   std::optional<InertialCalibrationStd> std;
+  bool moved = false;  // moved during the run (as CameraBlocks::moved)
 
   double* extrinsicBlock() { return gyro ? rotation : extrinsic; }
   // The extrinsic rotation R_AI and translation p_AI of T_i_b (p_A = R_AI p_I + p_AI).
@@ -96,6 +97,8 @@ class CalibrationBlocks {
   // their standard deviations the prior's until the next covariance (null `problem`: for the
   // next problem only).
   void reopenCamera(std::size_t c, ceres::Problem* problem);
+  // The same for auxiliary sensor `sensor` - 1 = i (its extrinsic or rotation, time offset).
+  void reopenAux(std::size_t i, ceres::Problem* problem);
   // Camera c's time offset [ns].
   TimeNs timeOffsetNs(std::size_t c) const { return fromSeconds(cameras_[c]->time_offset[0]); }
   // Camera c with its current intrinsics.
@@ -131,6 +134,13 @@ class CalibrationBlocks {
   // In the problem, constant, and not held by the options (held whole by the motion, or by the
   // first batch).
   bool heldWholeByMotion(const ceres::Problem& problem, const double* block) const;
+  // An auxiliary sensor's extrinsic (a gyroscope's rotation) prior at its current value.
+  static ceres::CostFunction* auxExtrinsicPrior(const AuxCalibration& a);
+  // The priors of a re-opened extrinsic and time offset in `problem` replaced by these (owned;
+  // deleted when `problem` is null).
+  void replacePriors(ceres::Problem* problem, double* extrinsic,
+                     ceres::CostFunction* extrinsic_prior, double* time_offset,
+                     ceres::CostFunction* time_offset_prior);
   double gravity_[kGravitySize] = {0.0, 0.0, -9.81};
   std::optional<std::vector<CameraCalibrationStd>> camera_std_;
   PoseManifold pose_manifold_;

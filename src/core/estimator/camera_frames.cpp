@@ -197,11 +197,27 @@ void CameraFrames::addEvidence(const ceres::CostFunction& factor,
   if (!factor.Evaluate(const_cast<double* const*>(blocks.data()), r.data(), jacobians.data())) {
     return;
   }
+  // The corners that agree with the frame's others: a camera that moved shifts all of them
+  // alike, a wrong detection one (its norm beyond 4 times the frame's median and 3 sigma; with
+  // 3% of the corners 15-30 px off the noise level measured on the evidence was 2400).
+  std::vector<double> norms;
+  for (int i = 0; i + 1 < n; i += 2) norms.push_back(std::hypot(r[i], r[i + 1]));
+  const double bound = std::max(4.0 * medianOf(norms), 3.0);
+  std::vector<int> rows;
+  for (int i = 0; i + 1 < n; i += 2) {
+    if (norms[static_cast<std::size_t>(i / 2)] <= bound) rows.insert(rows.end(), {i, i + 1});
+  }
+  if (rows.empty()) return;
   // The pose block's first six columns are its tangent's (state_blocks.h).
-  Eigen::MatrixXd J(n, ChangeDetector::kDim);
-  J.leftCols(kPoseTangent) = J_extrinsic.leftCols(kPoseTangent);
-  J.col(kPoseTangent) = J_offset.col(0);
-  changes_->addFrame(c, frame.stamp_ns + calibration_.timeOffsetNs(c), r, J);
+  Eigen::VectorXd r_kept(static_cast<Eigen::Index>(rows.size()));
+  Eigen::MatrixXd J(static_cast<Eigen::Index>(rows.size()), ChangeDetector::kDim);
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const auto row = static_cast<Eigen::Index>(k);
+    r_kept[row] = r[rows[k]];
+    J.row(row).head(kPoseTangent) = J_extrinsic.row(rows[k]).head(kPoseTangent);
+    J(row, kPoseTangent) = J_offset(rows[k], 0);
+  }
+  changes_->add(c, frame.stamp_ns + calibration_.timeOffsetNs(c), r_kept, J);
 }
 
 SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {

@@ -17,7 +17,8 @@ double chiSquareQuantile(double n, double z) {
   const double a = 2.0 / (9.0 * n);
   return n * std::pow(1.0 - a + z * std::sqrt(a), 3);
 }
-constexpr double kStepZ = 3.09;  // the step's consistency test at 1 - 1e-3
+constexpr double kStepZ = 3.09;  // the bins' scatter about the step at 1 - 1e-3
+constexpr double kRampZ = 2.33;  // the ramp's fit against the step's at 1 - 1e-2
 
 double median(std::deque<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -42,13 +43,26 @@ Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& H) {
 
 Matrix7 pseudoInverse(const Matrix7& H) { return pseudoInverse(Eigen::MatrixXd(H)); }
 
-ChangeDetector::ChangeDetector(std::size_t cameras) : cameras_(cameras) {}
+void eliminateNuisance(const ChangeDetector::MatrixA& H, const ChangeDetector::VectorA& g,
+                       Matrix7* H7, Vector7* g7) {
+  constexpr int n = ChangeDetector::kDim, m = ChangeDetector::kNuisance;
+  const Eigen::MatrixXd Hnn_inv = pseudoInverse(Eigen::MatrixXd(H.bottomRightCorner<m, m>()));
+  const Eigen::Matrix<double, n, m> Hxn = H.topRightCorner<n, m>();
+  *H7 = H.topLeftCorner<n, n>() - Hxn * Hnn_inv * Hxn.transpose();
+  *H7 = 0.5 * (*H7 + H7->transpose());
+  *g7 = g.head<n>() - Hxn * Hnn_inv * g.tail<m>();
+}
 
-void ChangeDetector::addFrame(std::size_t c, TimeNs t, const Eigen::VectorXd& r,
-                              const Eigen::MatrixXd& J) {
-  if (c >= cameras_.size() || J.cols() != kDim || J.rows() != r.size() || r.size() == 0) return;
+ChangeDetector::ChangeDetector(std::size_t slots) : slots_(slots) {}
+
+void ChangeDetector::add(std::size_t c, TimeNs t, const Eigen::VectorXd& r,
+                         const Eigen::MatrixXd& J) {
+  if (c >= slots_.size() || (J.cols() != kDim && J.cols() != kAll) || J.rows() != r.size() ||
+      r.size() == 0) {
+    return;
+  }
   if (!r.allFinite() || !J.allFinite()) return;
-  Camera& cam = cameras_[c];
+  Slot& cam = slots_[c];
   if (cam.has_open && t >= cam.open.start + kBinNs) close(cam);
   if (cam.has_open && t < cam.open.start) return;  // out of order (a restart's leftovers)
   if (!cam.has_open) {
@@ -56,12 +70,13 @@ void ChangeDetector::addFrame(std::size_t c, TimeNs t, const Eigen::VectorXd& r,
     cam.open.start = t;
     cam.has_open = true;
   }
-  cam.open.H.noalias() += J.transpose() * J;
-  cam.open.g.noalias() += J.transpose() * r;
+  const Eigen::Index n = J.cols();
+  cam.open.H.topLeftCorner(n, n).noalias() += J.transpose() * J;
+  cam.open.g.head(n).noalias() += J.transpose() * r;
   ++cam.open.frames;
 }
 
-void ChangeDetector::close(Camera& cam) {
+void ChangeDetector::close(Slot& cam) {
   cam.has_open = false;
   if (cam.open.frames < kMinFramesPerBin) return;
   if (cam.first < 0) cam.first = cam.open.start;
@@ -70,45 +85,65 @@ void ChangeDetector::close(Camera& cam) {
   cam.tested = false;
   // The noise level: the closed bins' steps about their common one, over their model.
   if (static_cast<int>(cam.closed.size()) < kBins / 2) return;
-  Matrix7 H = Matrix7::Zero();
-  Vector7 g = Vector7::Zero();
-  for (const Bin& b : cam.closed) {
-    H += b.H;
-    g += b.g;
-  }
-  const Vector7 d = -pseudoInverse(H) * g;
-  double scatter = 0.0;
-  for (const Bin& b : cam.closed) {
-    // (d_b - d)^T H_b (d_b - d) with H_b d_b = -g_b (g_b is in H_b's range).
-    const Vector7 db = -pseudoInverse(b.H) * b.g;
-    scatter += (db - d).dot(b.H * (db - d));
-  }
-  const double dof = kDim * (static_cast<double>(cam.closed.size()) - 1.0);
-  cam.noise.push_back(scatter / dof);
+  cam.noise.push_back(scatter(cam, static_cast<int>(cam.closed.size())) /
+                      (kDim * (static_cast<double>(cam.closed.size()) - 1.0)));
   if (cam.noise.size() > kNoiseKept) cam.noise.pop_front();
 }
 
+double ChangeDetector::oneStep(const Slot& cam, int k) {
+  MatrixA H = MatrixA::Zero();
+  VectorA g = VectorA::Zero();
+  for (int j = 1; j <= k; ++j) {
+    const Bin& b = cam.closed[cam.closed.size() - static_cast<std::size_t>(j)];
+    H += b.H;
+    g += b.g;
+  }
+  return g.dot(pseudoInverse(Eigen::MatrixXd(H)) * g);
+}
+
+double ChangeDetector::scatter(const Slot& cam, int k) {
+  // Each bin its own step, the nuisance parameters common: each step eliminated in its bin, then
+  // the nuisance parameters from what is left of every bin.
+  constexpr int n = kDim, m = kNuisance;
+  double drop = 0.0;
+  Eigen::Matrix<double, m, m> N = Eigen::Matrix<double, m, m>::Zero();
+  Eigen::Matrix<double, m, 1> gn = Eigen::Matrix<double, m, 1>::Zero();
+  for (int j = 1; j <= k; ++j) {
+    const Bin& b = cam.closed[cam.closed.size() - static_cast<std::size_t>(j)];
+    const Matrix7 Hxx_inv = pseudoInverse(Matrix7(b.H.topLeftCorner<n, n>()));
+    const Eigen::Matrix<double, m, n> Hnx = b.H.bottomLeftCorner<m, n>();
+    drop += b.g.head<n>().dot(Hxx_inv * b.g.head<n>());
+    N += b.H.bottomRightCorner<m, m>() - Hnx * Hxx_inv * Hnx.transpose();
+    gn += b.g.tail<m>() - Hnx * Hxx_inv * b.g.head<n>();
+  }
+  drop += gn.dot(pseudoInverse(Eigen::MatrixXd(N)) * gn);
+  return std::max(0.0, drop - oneStep(cam, k));
+}
+
 double ChangeDetector::noise(std::size_t c) const {
-  const Camera& cam = cameras_.at(c);
+  const Slot& cam = slots_.at(c);
   if (cam.noise.empty()) return 1.0;
   return std::max(1.0, median(cam.noise));
 }
 
 std::optional<ChangeDetector::Change> ChangeDetector::test(std::size_t c, const Matrix7& P) {
-  if (c >= cameras_.size()) return std::nullopt;
-  Camera& cam = cameras_[c];
+  if (c >= slots_.size()) return std::nullopt;
+  Slot& cam = slots_[c];
   if (cam.tested || static_cast<int>(cam.closed.size()) < kMinBins) return std::nullopt;
   cam.tested = true;
   const double f = noise(c);
   std::optional<Change> best;
-  Matrix7 H = Matrix7::Zero();
-  Vector7 g = Vector7::Zero();
+  MatrixA H_all = MatrixA::Zero();
+  VectorA g_all = VectorA::Zero();
   // The windows of the last k bins, shortest first.
   for (int k = 1; k <= static_cast<int>(cam.closed.size()); ++k) {
     const Bin& newest = cam.closed[cam.closed.size() - static_cast<std::size_t>(k)];
-    H += newest.H;
-    g += newest.g;
+    H_all += newest.H;
+    g_all += newest.g;
     if (k < kMinBins) continue;
+    Matrix7 H;
+    Vector7 g;
+    eliminateNuisance(H_all, g_all, &H, &g);
     const Matrix7 Hinv = pseudoInverse(H);
     const Vector7 d = -Hinv * g;
     const Matrix7 C = f * Hinv + P;
@@ -116,18 +151,11 @@ std::optional<ChangeDetector::Change> ChangeDetector::test(std::size_t c, const 
     if (ldlt.info() != Eigen::Success) continue;
     const double T = d.dot(ldlt.solve(d));
     if (!(T > kThreshold)) continue;
-    double scatter = 0.0;
-    for (int j = 1; j <= k; ++j) {
-      const Bin& b = cam.closed[cam.closed.size() - static_cast<std::size_t>(j)];
-      const Vector7 db = -pseudoInverse(b.H) * b.g;
-      scatter += (db - d).dot(b.H * (db - d));
-    }
-    scatter /= f;
-    if (scatter > chiSquareQuantile(kDim * (k - 1.0), kStepZ)) continue;  // not one step
-    if (rampStatistic(cam, k, g, Hinv) / f > chiSquareQuantile(kDim, kStepZ)) continue;
+    if (scatter(cam, k) / f > chiSquareQuantile(kDim * (k - 1.0), kStepZ)) continue;  // no step
+    if (rampStatistic(cam, k) / f > chiSquareQuantile(kDim, kRampZ)) continue;
     if (!best || T > best->statistic) {
       best = Change();
-      best->camera = c;
+      best->slot = c;
       best->stamp_ns = cam.closed.back().start + kBinNs;
       best->since_ns = newest.start;
       best->step = d;
@@ -140,32 +168,53 @@ std::optional<ChangeDetector::Change> ChangeDetector::test(std::size_t c, const 
   return best;
 }
 
-double ChangeDetector::rampStatistic(const Camera& cam, int k, const Vector7& g,
-                                     const Matrix7& Hinv) {
-  // Bins' centres about their mean [s].
+bool ChangeDetector::suggests(std::size_t c, const Matrix7& P) const {
+  if (c >= slots_.size()) return false;
+  const Slot& cam = slots_[c];
+  const double f = noise(c);
+  MatrixA H_all = MatrixA::Zero();
+  VectorA g_all = VectorA::Zero();
+  for (int k = 1; k < kMinBins && k <= static_cast<int>(cam.closed.size()); ++k) {
+    const Bin& newest = cam.closed[cam.closed.size() - static_cast<std::size_t>(k)];
+    H_all += newest.H;
+    g_all += newest.g;
+    Matrix7 H;
+    Vector7 g;
+    eliminateNuisance(H_all, g_all, &H, &g);
+    const Matrix7 Hinv = pseudoInverse(H);
+    const Vector7 d = -Hinv * g;
+    const Eigen::LDLT<Matrix7> ldlt(f * Hinv + P);
+    if (ldlt.info() == Eigen::Success && d.dot(ldlt.solve(d)) > kThreshold) return true;
+  }
+  return false;
+}
+
+double ChangeDetector::rampStatistic(const Slot& cam, int k) {
+  // The step a + b (t - mean t) with the nuisance parameters common: [a, b, nuisance].
+  constexpr int n = kDim, m = kNuisance;
   std::vector<double> tau;
   double mean = 0.0;
   for (int j = 1; j <= k; ++j) {
     tau.push_back(toSeconds(cam.closed[cam.closed.size() - static_cast<std::size_t>(j)].start));
     mean += tau.back() / k;
   }
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * kDim, 2 * kDim);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * kDim);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n + m, 2 * n + m);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n + m);
   for (int j = 1; j <= k; ++j) {
     const Bin& b = cam.closed[cam.closed.size() - static_cast<std::size_t>(j)];
     const double t = tau[static_cast<std::size_t>(j - 1)] - mean;
-    A.topLeftCorner<kDim, kDim>() += b.H;
-    A.topRightCorner<kDim, kDim>() += t * b.H;
-    A.bottomRightCorner<kDim, kDim>() += t * t * b.H;
-    rhs.head<kDim>() -= b.g;
-    rhs.tail<kDim>() -= t * b.g;
+    Eigen::Matrix<double, n + m, 2 * n + m> E = Eigen::Matrix<double, n + m, 2 * n + m>::Zero();
+    E.topLeftCorner<n, n>().setIdentity();  // [a, b, nuisance] -> [a + t b, nuisance]
+    E.block<n, n>(0, n) = t * Matrix7::Identity();
+    E.bottomRightCorner<m, m>().setIdentity();
+    A += E.transpose() * b.H * E;
+    rhs += E.transpose() * b.g;
   }
-  A.bottomLeftCorner<kDim, kDim>() = A.topRightCorner<kDim, kDim>().transpose();
-  return std::max(0.0, rhs.dot(pseudoInverse(A) * rhs) - g.dot(Hinv * g));
+  return std::max(0.0, rhs.dot(pseudoInverse(A) * rhs) - oneStep(cam, k));
 }
 
 void ChangeDetector::forget(std::size_t c, bool noise) {
-  Camera& cam = cameras_.at(c);
+  Slot& cam = slots_.at(c);
   cam.closed.clear();
   cam.has_open = false;
   cam.tested = true;
@@ -174,7 +223,7 @@ void ChangeDetector::forget(std::size_t c, bool noise) {
 }
 
 void ChangeDetector::clear() {
-  for (std::size_t c = 0; c < cameras_.size(); ++c) forget(c);
+  for (std::size_t c = 0; c < slots_.size(); ++c) forget(c);
 }
 
 }  // namespace estimator_internal

@@ -56,10 +56,13 @@ Estimator::Impl::Impl(const Rig& r, const EstimatorOptions& o)
       frames(rig, options, window, imu, calibration, intrinsics, landmarks, counters),
       startup(rig, options, calibration, imu, counters),
       inertial_fit(rig, options, intrinsics),
-      changes(rig.cameras.size()),
+      changes(rig.cameras.size() + rig.inertial.size() - 1),
       odometry(rig.inertial[0], options.imu_integration_step_s) {
   trusted.setConfigured(trustedBlocks(true));
-  if (options.detect_changes && rig.target && !options.batch) frames.setChangeDetector(&changes);
+  if (options.detect_changes && rig.target && !options.batch) {
+    frames.setChangeDetector(&changes);
+    aux.setChangeDetector(&changes, rig.cameras.size());
+  }
 }
 
 std::vector<estimator_internal::TrustedCalibration::Block> Estimator::Impl::trustedBlocks(
@@ -229,11 +232,12 @@ void Estimator::Impl::process() {
         summary = solve(options.max_iterations);
         frames_since_solve = 0;
         const std::string why = failure();
-        if (!why.empty()) {
+        if (!why.empty() && !deferFailure(why, t)) {
           ++counters.failures;
-          restart(why, t, true);
+          restart(why, failure_since(t), true);
           continue;  // the frames waiting were dropped with the window
         }
+        if (why.empty()) deferred_failure_slot = -1;
       } else {
         summary = window.summary();  // the new state as the IMU predicted it
         summary.usable = true;
@@ -242,12 +246,13 @@ void Estimator::Impl::process() {
         marginalizeOldest();
       }
       publish(summary, start);
-      if (!covariance_failure.empty()) {
+      if (!covariance_failure.empty() && !deferFailure(covariance_failure, t)) {
         ++counters.failures;
-        restart(std::move(covariance_failure), t, true);
+        restart(std::move(covariance_failure), failure_since(t), true);
         covariance_failure.clear();
         continue;
       }
+      covariance_failure.clear();
     }
     trimBuffers();
   }
@@ -279,8 +284,7 @@ void Estimator::Impl::addImuFactor(std::size_t k, std::shared_ptr<const ImuPrein
   State* a = &window.state(k);
   State* b = &window.state(k + 1);
   monitor.addReadingMoments(0, b->t, pre->samples(), Eigen::Quaterniond(poseRotation(a->pose)),
-                            Eigen::Vector3d(calibration.gravity()),
-                            a->biasGyro());
+                            Eigen::Vector3d(calibration.gravity()), a->biasGyro());
   double* g = calibration.gravity();
   double* block = intrinsics.values(0);
   if (block == nullptr) {
@@ -310,8 +314,8 @@ void Estimator::Impl::addState(const TagFrame& frame, TimeNs t) {
     Eigen::Vector3d p, v;
     (intrinsics.block(0) != nullptr ? corrected(last, t) : pre)
         ->predict(poseRotation(last.pose), posePosition(last.pose),
-                  Eigen::Vector3d(last.speed_bias), Eigen::Vector3d(calibration.gravity()), &q,
-                  &p, &v);
+                  Eigen::Vector3d(last.speed_bias), Eigen::Vector3d(calibration.gravity()), &q, &p,
+                  &v);
     se3ToPose(SE3(q, p), s->pose);
     Eigen::Map<Eigen::Vector3d>(s->speed_bias) = v;
     std::copy(last.speed_bias + 3, last.speed_bias + 9, s->speed_bias + 3);
@@ -335,8 +339,8 @@ PropagationAnchor Estimator::Impl::anchor() {
   out.valid = true;
   out.state = newest.toEstimate();
   out.gravity_G = Eigen::Vector3d(calibration.gravity());
-  out.correction =
-      intrinsics.block(0) != nullptr ? intrinsics.baseCorrection() : intrinsics.arrivalCorrection(0);
+  out.correction = intrinsics.block(0) != nullptr ? intrinsics.baseCorrection()
+                                                  : intrinsics.arrivalCorrection(0);
   intrinsics.baseBiases(newest.biasGyro(), newest.biasAccel(), &out.corrected_bias_gyro,
                         &out.corrected_bias_accel);
   return out;
@@ -448,7 +452,7 @@ void Estimator::Impl::trimBuffers() {
   aux.trim(from);
 }
 
-void Estimator::Impl::restart(const std::string& why, TimeNs when, bool failure) {
+void Estimator::Impl::restart(const std::string& why, TimeNs when, bool failure, bool for_change) {
   if (failure) {
     trusted.distrust(when, kFailureLookbackNs);
   } else {
@@ -473,6 +477,7 @@ void Estimator::Impl::restart(const std::string& why, TimeNs when, bool failure)
   status_text = s.str();
   last_restart = restart_note = status_text;
   last_restart_ns = when;
+  if (!for_change) fault_restart_ns = when;
 }
 
 std::string Estimator::Impl::failure() const {
@@ -509,6 +514,7 @@ void Estimator::Impl::resetAll() {
   aux.clear();
   inertial_fit.clear();
   changes.clear();
+  deferred_failure_slot = -1;
   monitor.clear();  // after newProblem(): the old problem no longer uses its manifolds
   odometry.reset();
   initialized = false;

@@ -93,10 +93,37 @@ struct Estimator::Impl {
   // the other cameras' frames and the auxiliary states, a solve every solve_every frames, the
   // oldest state marginalized, an update published.
   void process();
-  // Tests each camera's recent frames for a change of its calibration, and re-opens the cameras
-  // found moved (EstimatorOptions::detect_changes); true if the window started over for it.
+  // Tests each camera's and auxiliary sensor's recent data for a change of its calibration, and
+  // re-opens the sensors found moved (EstimatorOptions::detect_changes); true if the window
+  // started over for one (estimator_changes.cpp).
   bool followChanges();
-  bool reopenCamera(const estimator_internal::ChangeDetector::Change& change);
+  // A change detector's slot: the sensor's name and calibration blocks.
+  struct ChangeSlot {
+    std::string name;
+    double* extrinsic = nullptr;  // T_C_I, T_i_b, or a gyroscope's rotation
+    double* time_offset = nullptr;
+    bool camera = false, gyro = false;
+    bool tested = true;  // its change test may declare it moved
+  };
+  ChangeSlot changeSlot(std::size_t slot);
+  // The sensor's current estimate's covariance in the change test's coordinates.
+  estimator_internal::ChangeDetector::Matrix7 referenceCovariance(const ChangeSlot& s) const;
+  // Records the change (declared_changes, the counter) and says it.
+  std::string describeChange(const estimator_internal::ChangeDetector::Change& change,
+                             const ChangeSlot& s, bool offset_free);
+  bool reopen(const estimator_internal::ChangeDetector::Change& change);
+  // A failure naming one sensor's extrinsic or time offset waits (at most kDeferFailureNs from
+  // its first time) while that sensor's change test gathers the evidence that it moved: true
+  // while it waits. The first time of the failure waited for (when it is restarted on), or t.
+  bool deferFailure(const std::string& why, TimeNs t);
+  TimeNs failure_since(TimeNs t) const {
+    return deferred_failure_slot >= 0 ? std::min(t, deferred_failure_ns) : t;
+  }
+  int deferred_failure_slot = -1;  // the sensor whose failure waits (-1: none)
+  // The last restart for a fault (base clock; lowest TimeNs: none): no change is declared for
+  // kSettleAfterFaultNs after it.
+  TimeNs fault_restart_ns = std::numeric_limits<TimeNs>::min();
+  TimeNs deferred_failure_ns = 0;
   // A new window state at base time t, predicted from the newest with the readings, with its
   // IMU factor and the frame's factors.
   void addState(const TagFrame& frame, TimeNs t);
@@ -144,8 +171,10 @@ struct Estimator::Impl {
   void newProblem();
   void resetAll();
   // The window starts over from the trusted calibration (trusted_calibration.h), saying why;
-  // after a `failure` of the estimate from one trusted kFailureLookbackNs before it.
-  void restart(const std::string& why, TimeNs when, bool failure = false);
+  // after a `failure` of the estimate from one trusted kFailureLookbackNs before it. `for_change`:
+  // a sensor found moved (estimator_changes.cpp), not a fault.
+  void restart(const std::string& why, TimeNs when, bool failure = false,
+               bool for_change = false);
   // The checks after a solve: why the estimate has gone wrong, or "".
   std::string failure() const;
   // Every calibration block for the trusted calibration, estimated where variable in the

@@ -108,6 +108,11 @@ void ImuIntrinsicsBlocks::refreshBase() {
   if (blocks_[0]) base_ = ImuCorrection(intrinsicsFromBlock(blocks_[0]->x, blocks_[0]->frame));
 }
 
+std::optional<ImuCorrection> ImuIntrinsicsBlocks::estimatedCorrection(std::size_t i) const {
+  if (!blocks_[i]) return std::nullopt;
+  return ImuCorrection(intrinsicsFromBlock(blocks_[i]->x, blocks_[i]->frame));
+}
+
 bool ImuIntrinsicsBlocks::isBlock(const double* x) const {
   for (const auto& b : blocks_) {
     if (b && b->x == x) return true;

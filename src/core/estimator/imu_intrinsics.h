@@ -57,6 +57,9 @@ class ImuIntrinsicsBlocks {
   // used as they are (IMU-rate propagation, frame anchors): refreshed by refreshBase().
   const ImuCorrection& baseCorrection() const { return base_; }
   void refreshBase();
+  // Sensor i's current estimate as a correction of its readings as they arrived, when its
+  // intrinsics are estimated (arrival leaves them as they are then); nullopt when not.
+  std::optional<ImuCorrection> estimatedCorrection(std::size_t i) const;
   // The biases to subtract from readings corrected by baseCorrection() for raw biases bg, ba.
   void baseBiases(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba, Eigen::Vector3d* bg_out,
                   Eigen::Vector3d* ba_out) const {

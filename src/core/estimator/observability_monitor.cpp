@@ -328,19 +328,11 @@ void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
   // and 1.6-2.6 m off after 60 s; held from the start now, test_estimator_sensors).
   const Eigen::Matrix3d translation_information =
       sum.translation - 3.0 * std::sqrt(2.0 * sum.translation_var) * Eigen::Matrix3d::Identity();
-  // The motion's information is weighed against an uninformed prior's, the options' defaults
-  // where the configuration's *_std are tighter: a saved calibration's sigmas (0.1 mm) would
-  // otherwise make fully exciting motion look uninformative (on the real EuRoC recording's second
-  // half, started from the first half's result, both cameras' translations were held with the
-  // advice to rotate about more than one axis).
-  const auto uninformed = [](const CalibrationPrior& p, double rotation, double translation,
-                             double time_offset) {
-    return CalibrationPrior{p.rotation.cwiseMax(rotation), p.translation.cwiseMax(translation),
-                            std::max(p.time_offset, time_offset)};
-  };
+  // Against an uninformed prior: a saved calibration's sigmas made exciting motion look weak.
   auto translation = [&](const std::string& name, const double* block,
                          const CalibrationPrior& configured, double uninformed_m, double density) {
-    const CalibrationPrior prior = uninformed(configured, 0.0, uninformed_m, 0.0);
+    CalibrationPrior prior = configured;
+    prior.translation = prior.translation.cwiseMax(uninformed_m);
     if (!estimated(problem, block) || !(density > 0.0)) return;
     const Eigen::Matrix3d R_X_I = poseRotation(block).toRotationMatrix();
     quantities.push_back(
@@ -394,8 +386,9 @@ void ObservabilityMonitor::spatialQuantities(const ceres::Problem& problem,
     // d w_G / d dtheta = -R hat(w); its time offset: d w_G / d t = R alpha.
     const double density = noise.gyroscope_noise_density;
     if (!(density > 0.0)) continue;
-    const CalibrationPrior prior = uninformed(a->prior, options_.aux_rotation_prior_rad, 0.0,
-                                              options_.aux_time_offset_prior_s);
+    CalibrationPrior prior = a->prior;
+    prior.rotation = prior.rotation.cwiseMax(options_.aux_rotation_prior_rad);
+    prior.time_offset = std::max(prior.time_offset, options_.aux_time_offset_prior_s);
     if (estimated(problem, a->rotation)) {
       quantities.push_back({name, "rotation", a->rotation, 0, 3, prior.rotation,
                             Eigen::Matrix3d::Identity(), sum.rotation / (density * density)});

@@ -116,10 +116,11 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
         SensorMove m;
         m.sensor = item.first.as<std::string>();
         const EntryReader move(item.second, path, "moves: " + m.sensor);
-        move.rejectUnknownKeys({"at_s", "rotation_deg", "translation_m"});
+        move.rejectUnknownKeys({"at_s", "rotation_deg", "translation_m", "time_offset_s"});
         m.at_s = nonNegative(move, "at_s", 0.0);
         if (move.has("rotation_deg")) m.rotation_rad = move.vector("rotation_deg", 3) * kDegree;
         if (move.has("translation_m")) m.translation_m = move.vector("translation_m", 3);
+        m.time_offset_s = move.number("time_offset_s", 0.0);
         c.moves.push_back(m);
       }
     }
@@ -139,11 +140,13 @@ StatusOr<Rig> movedRig(const Rig& truth, const std::vector<SensorMove>& moves) {
     for (auto& cam : out.cameras) {
       if (cam.name != m.sensor) continue;
       cam.T_cam_imu = delta * cam.T_cam_imu;
+      cam.timeshift_cam_imu += m.time_offset_s;
       found = true;
     }
     for (std::size_t i = 1; i < out.inertial.size(); ++i) {
       if (out.inertial[i].name != m.sensor) continue;
       out.inertial[i].T_i_b = delta * out.inertial[i].T_i_b;
+      out.inertial[i].time_offset += m.time_offset_s;
       found = true;
     }
     if (!found) {
