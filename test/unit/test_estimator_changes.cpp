@@ -177,6 +177,21 @@ TEST(CalibrationChanges, CameraKnockedDuringTheRecordingIsFoundWithinSeconds) {
   expectInside(o, 3.5);
 }
 
+// cam0 makes the window's states: knocked before the recording, the first poses carry its error
+// and the other cameras' evidence against them is forgotten when it is found.
+TEST(CalibrationChanges, BaseCameraKnockedBeforeOrDuringTheRecordingIsFoundAlone) {
+  for (const double at_s : {0.0, 12.0}) {
+    SCOPED_TRACE(at_s);
+    const Outcome o = run({knock("cam0", at_s)}, 30.0, 27);
+    expectDeclaredOnce(o, "cam0", at_s, at_s > 0.0 ? at_s + 3.0 : 5.0);
+    const CameraErrors e = errors(o.truth.cameras[0], o.estimate.cameras[0]);
+    EXPECT_LT(e.rotation_deg, 0.05);
+    EXPECT_LT(e.translation_mm, 1.0);
+    EXPECT_LT(e.time_offset_ms, 0.1);
+    expectInside(o, 3.5);
+  }
+}
+
 TEST(CalibrationChanges, AuxiliaryImuKnockedDuringTheRecordingIsFound) {
   const double at_s = 12.0;
   const Outcome o = run({knock("imu1", at_s, 1.0)}, 30.0, 24);

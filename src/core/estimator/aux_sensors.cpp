@@ -355,7 +355,8 @@ void AuxSensors::addEvidence(const Stream& a, const State& from, TimeNs to) {
   const InertialSensor& sensor = rig_.inertial[a.sensor];
   const InertialSensor& base = rig_.inertial[0];
   const AuxState* aux = from.aux[idx].get();
-  if (aux == nullptr || !(sensor.update_rate > 0.0)) return;
+  // Tested against a saved calibration only (estimator_changes.cpp, changeSlot).
+  if (aux == nullptr || !(sensor.update_rate > 0.0) || !sensor.std || cal.moved) return;
   // Each reading's noise, and the base reading's carried to it (a reading's white noise is its
   // density times the square root of its rate).
   const double rate = sensor.update_rate;

@@ -69,7 +69,6 @@ CameraFrames::CameraFrames(const Rig& rig, const EstimatorOptions& options, Wind
       waiting_(rig.cameras.size()),
       last_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()),
       recent_(rig.cameras.size()),
-      misfit_entered_(rig.cameras.size(), std::numeric_limits<TimeNs>::min()),
       held_out_(rig.cameras.size(), false) {
   if (options.huber_sigma > 0.0) huber_ = std::make_unique<ceres::HuberLoss>(options.huber_sigma);
 }
@@ -107,7 +106,6 @@ void CameraFrames::clear() {
   for (auto& q : waiting_) q.clear();
   std::fill(last_.begin(), last_.end(), std::numeric_limits<TimeNs>::min());
   last_entered_ = std::numeric_limits<TimeNs>::min();
-  std::fill(misfit_entered_.begin(), misfit_entered_.end(), std::numeric_limits<TimeNs>::min());
   // recent_ stays: a camera's residual level is the camera's, not the window's
   // (forgetResiduals() when the calibration starts over from the configured one).
 }
@@ -180,13 +178,14 @@ int CameraFrames::settleFirstBatch() {
   return changed;
 }
 
-void CameraFrames::addEvidence(const ceres::CostFunction& factor,
-                               const std::vector<double*>& blocks, const TagFrame& frame) {
+std::vector<double> CameraFrames::addEvidence(const ceres::CostFunction& factor,
+                                              const std::vector<double*>& blocks,
+                                              const TagFrame& frame) {
   using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const std::size_t c = frame.camera;
   CameraBlocks& cb = calibration_.camera(c);
   const int n = factor.num_residuals();
-  if (n < 2) return;
+  if (n < 2) return {};
   Eigen::VectorXd r(n);
   RowMajor J_extrinsic(n, kPoseSize), J_offset(n, 1);
   std::vector<double*> jacobians(blocks.size(), nullptr);
@@ -195,7 +194,7 @@ void CameraFrames::addEvidence(const ceres::CostFunction& factor,
     if (blocks[i] == cb.time_offset) jacobians[i] = J_offset.data();
   }
   if (!factor.Evaluate(const_cast<double* const*>(blocks.data()), r.data(), jacobians.data())) {
-    return;
+    return {};
   }
   // The corners that agree with the frame's others: a camera that moved shifts all of them
   // alike, a wrong detection one (its norm beyond 4 times the frame's median and 3 sigma; with
@@ -207,7 +206,7 @@ void CameraFrames::addEvidence(const ceres::CostFunction& factor,
   for (int i = 0; i + 1 < n; i += 2) {
     if (norms[static_cast<std::size_t>(i / 2)] <= bound) rows.insert(rows.end(), {i, i + 1});
   }
-  if (rows.empty()) return;
+  if (rows.empty()) return norms;
   // The pose block's first six columns are its tangent's (state_blocks.h).
   Eigen::VectorXd r_kept(static_cast<Eigen::Index>(rows.size()));
   Eigen::MatrixXd J(static_cast<Eigen::Index>(rows.size()), ChangeDetector::kDim);
@@ -218,6 +217,7 @@ void CameraFrames::addEvidence(const ceres::CostFunction& factor,
     J(row, kPoseTangent) = J_offset(rows[k], 0);
   }
   changes_->add(c, frame.stamp_ns + calibration_.timeOffsetNs(c), r_kept, J);
+  return norms;
 }
 
 SE3 CameraFrames::cameraPoseAt(const TagFrame& frame, std::size_t k) const {
@@ -360,11 +360,13 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
   for (auto& [obs, landmark] : groups) {
     const bool gated = landmark == nullptr && initialized && options_.frame_gate_sigma > 0.0;
     TagReprojectionFactor* factor = make(gated ? obs : std::move(obs));
+    // Each corner's whitened residual norm, the change test's evaluation's when it has one.
+    std::vector<double> norms;
     if (landmark == nullptr && initialized && changes_ != nullptr) {
-      addEvidence(*factor, blocks, frame);
+      norms = addEvidence(*factor, blocks, frame);
     }
     if (gated) {
-      const std::vector<double> norms = cornerResiduals(*factor, blocks);
+      if (norms.empty()) norms = cornerResiduals(*factor, blocks);
       const double median = medianOf(norms);
       // Against the camera's own recent frames too: a clock that drifts moves its corners
       // gradually, long before they are gate_sigma_ off.
@@ -375,10 +377,6 @@ std::vector<CameraFrames::Piece> CameraFrames::factors(const TagFrame& frame, st
       const bool off = (gate_sigma_ > 0.0 && !(median <= gate_sigma_)) || !std::isfinite(median) ||
                        (median > kBaselineRatio * baseline && median > kBaselineFloor);
       if (!off) {
-        if (median > kBaselineFloor) {
-          misfit_entered_[c] =
-              std::max(misfit_entered_[c], frame.stamp_ns + calibration_.timeOffsetNs(c));
-        }
         recent.push_back(median);
         if (recent.size() > kBaselineFrames) recent.pop_front();
       } else {

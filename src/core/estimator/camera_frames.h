@@ -62,9 +62,6 @@ class CameraFrames {
   void setChangeDetector(ChangeDetector* changes) { changes_ = changes; }
   // Camera c moved and was re-opened: its recent residuals (the gate's baseline) are forgotten.
   void forgetCamera(std::size_t c) { recent_.at(c).clear(); }
-  // The newest base time at which a frame of camera c entered the window with its corners'
-  // median residual over 2 sigma (lowest TimeNs: none since the window started).
-  TimeNs lastMisfitEntered(std::size_t c) const { return misfit_entered_.at(c); }
   // Camera c's frames stay out of the next first batch (the window starts over because it
   // moved: its new calibration is a guess until its frames inform it in the running window).
   void holdOutOfFirstBatch(std::size_t c) { held_out_.at(c) = true; }
@@ -109,9 +106,10 @@ class CameraFrames {
   // batch_losses_).
   ceres::LossFunction* tagLoss(int tags);
   // The frame's residuals and their Jacobian in its camera's [extrinsic tangent, time offset],
-  // to the change detector.
-  void addEvidence(const ceres::CostFunction& factor, const std::vector<double*>& blocks,
-                   const TagFrame& frame);
+  // to the change detector; returns each corner's whitened residual norm (empty if the factor
+  // could not be evaluated).
+  std::vector<double> addEvidence(const ceres::CostFunction& factor,
+                                  const std::vector<double*>& blocks, const TagFrame& frame);
   // The camera's pose at the frame: state k's carried there with the readings.
   SE3 cameraPoseAt(const TagFrame& frame, std::size_t k) const;
 
@@ -139,7 +137,6 @@ class CameraFrames {
   ChangeDetector* changes_ = nullptr;
   std::size_t carried_only_before_ = 0;
   std::vector<std::deque<double>> recent_;  // per camera, its entered frames' median residuals
-  std::vector<TimeNs> misfit_entered_;      // lastMisfitEntered()
   std::vector<bool> held_out_;              // holdOutOfFirstBatch()
   std::string warning_;
   TimeNs last_entered_ = std::numeric_limits<TimeNs>::min();

@@ -19,6 +19,11 @@ double chiSquareQuantile(double n, double z) {
 }
 constexpr double kStepZ = 3.09;  // the bins' scatter about the step at 1 - 1e-3
 constexpr double kRampZ = 2.33;  // the ramp's fit against the step's at 1 - 1e-2
+// Both allow this share of T more: the bins' steps are linearized about the old calibration, and
+// after a large step they scatter by its second order (cam1 turned by 2 deg: S 60-85 and R 8-31 at
+// T = 1.5-1.9e5, 4e-4 of it, which held the declaration back by 2 s; a drifting clock's S and R
+// are 0.3 of its T).
+constexpr double kLinearization = 1e-3;
 
 double median(std::deque<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -151,8 +156,9 @@ std::optional<ChangeDetector::Change> ChangeDetector::test(std::size_t c, const 
     if (ldlt.info() != Eigen::Success) continue;
     const double T = d.dot(ldlt.solve(d));
     if (!(T > kThreshold)) continue;
-    if (scatter(cam, k) / f > chiSquareQuantile(kDim * (k - 1.0), kStepZ)) continue;  // no step
-    if (rampStatistic(cam, k) / f > chiSquareQuantile(kDim, kRampZ)) continue;
+    const double allowance = kLinearization * T;
+    if (scatter(cam, k) / f > chiSquareQuantile(kDim * (k - 1.0), kStepZ) + allowance) continue;
+    if (rampStatistic(cam, k) / f > chiSquareQuantile(kDim, kRampZ) + allowance) continue;
     if (!best || T > best->statistic) {
       best = Change();
       best->slot = c;
@@ -166,6 +172,27 @@ std::optional<ChangeDetector::Change> ChangeDetector::test(std::size_t c, const 
     }
   }
   return best;
+}
+
+bool ChangeDetector::step(std::size_t c, TimeNs since, Vector7* d, Matrix7* covariance) const {
+  if (c >= slots_.size()) return false;
+  const Slot& cam = slots_[c];
+  MatrixA H_all = MatrixA::Zero();
+  VectorA g_all = VectorA::Zero();
+  int bins = 0;
+  for (auto b = cam.closed.rbegin(); b != cam.closed.rend() && (bins == 0 || b->start >= since);
+       ++b, ++bins) {
+    H_all += b->H;
+    g_all += b->g;
+  }
+  if (bins == 0) return false;
+  Matrix7 H;
+  Vector7 g;
+  eliminateNuisance(H_all, g_all, &H, &g);
+  const Matrix7 Hinv = pseudoInverse(H);
+  *d = -Hinv * g;
+  *covariance = noise(c) * Hinv;
+  return true;
 }
 
 bool ChangeDetector::suggests(std::size_t c, const Matrix7& P) const {

@@ -98,6 +98,9 @@ class ChangeDetector {
   // Whether the sensor's closed bins show a change from the current estimate, whose covariance
   // is P (in the same coordinates); tested once per closed bin (then nullopt until the next).
   std::optional<Change> test(std::size_t slot, const Matrix7& P);
+  // The step its closed bins since base time `since` show (at least one bin), and its covariance
+  // f H^+ (the data's alone); false when it has none.
+  bool step(std::size_t slot, TimeNs since, Vector7* d, Matrix7* covariance) const;
   // Whether the sensor's newest bins, fewer than kMinBins, already show a change (T alone over
   // kThreshold, no step tests): a failure of its calibration may wait for the test.
   bool suggests(std::size_t slot, const Matrix7& P) const;

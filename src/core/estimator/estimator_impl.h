@@ -112,6 +112,11 @@ struct Estimator::Impl {
   std::string describeChange(const estimator_internal::ChangeDetector::Change& change,
                              const ChangeSlot& s, bool offset_free);
   bool reopen(const estimator_internal::ChangeDetector::Change& change);
+  // A camera's change, checked against the other cameras' steps over its span: the camera whose
+  // own part (its step less the others' mean) is the largest is the one that moved (states
+  // pulled by a moved camera's frames shift the others' evidence alike); false if no camera's
+  // own part passes the test. The change is rewritten for that camera.
+  bool attribute(estimator_internal::ChangeDetector::Change* change);
   // A failure naming one sensor's extrinsic or time offset waits (at most kDeferFailureNs from
   // its first time) while that sensor's change test gathers the evidence that it moved: true
   // while it waits. The first time of the failure waited for (when it is restarted on), or t.
@@ -173,8 +178,7 @@ struct Estimator::Impl {
   // The window starts over from the trusted calibration (trusted_calibration.h), saying why;
   // after a `failure` of the estimate from one trusted kFailureLookbackNs before it. `for_change`:
   // a sensor found moved (estimator_changes.cpp), not a fault.
-  void restart(const std::string& why, TimeNs when, bool failure = false,
-               bool for_change = false);
+  void restart(const std::string& why, TimeNs when, bool failure = false, bool for_change = false);
   // The checks after a solve: why the estimate has gone wrong, or "".
   std::string failure() const;
   // Every calibration block for the trusted calibration, estimated where variable in the
