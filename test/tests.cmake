@@ -75,6 +75,9 @@ mvis_core_test(test_estimator_sensors test/unit/test_estimator_sensors.cpp)
 mvis_core_test(test_estimator_imu_intrinsics test/unit/test_estimator_imu_intrinsics.cpp)
 mvis_core_test(test_estimator_degenerate test/unit/test_estimator_degenerate.cpp)
 mvis_core_test(test_estimator_changes test/unit/test_estimator_changes.cpp)
+# The change test itself, on synthetic evidence (a private part of the estimator).
+mvis_core_test(test_change_detector test/unit/test_change_detector.cpp)
+target_include_directories(test_change_detector PRIVATE ${PROJECT_SOURCE_DIR}/src/core/estimator)
 
 # A simulated VI-Rig bag for the replay rostest, made at build time: the VI-Rig with a second
 # auxiliary IMU (two aux IMUs and a gyroscope).

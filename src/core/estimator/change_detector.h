@@ -33,7 +33,10 @@
 // is chi-square with 7. A change inside the k bins, or a clock that drifts (a fault, for the
 // failure checks; it is no change of the rig), is refused by S over its 1 - 1e-3 quantile or R
 // over its 1 - 1e-2 quantile (a step's window refused that way is tested again with the next
-// bin; the shorter windows after a change then pass).
+// bin; the shorter windows after a change then pass). A ramp slow against the bins' noise passes
+// for a step once its size dwarfs its growth within a window (test_change_detector): a clock
+// that keeps drifting is then followed by steps, unless the failure checks restart on it first
+// (they do on the fault suite's 0.5% for 3 s).
 //
 // An auxiliary sensor's biases are nuisance parameters: unknown and constant over a window (over
 // a quarter of a second a rate error proportional to the rig's turning looks much like a bias,
