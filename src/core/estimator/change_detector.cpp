@@ -1,8 +1,10 @@
 #include "change_detector.h"
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+
+#include "../factors/scaled_factorization.h"
 
 namespace mvis {
 namespace estimator_internal {
@@ -25,26 +27,19 @@ constexpr double kRampZ = 2.33;  // the ramp's fit against the step's at 1 - 1e-
 // are 0.3 of its T).
 constexpr double kLinearization = 1e-3;
 
+// The pseudo-inverse of a Jacobi-scaled H: directions with a scaled eigenvalue under kZero carry
+// nothing (a time offset on a rig that does not move).
+constexpr double kZero = 1e-9;
+Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& H) {
+  return scaled_factorization::pseudoInverse(H, kZero);
+}
+
 double median(std::deque<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
   return v[v.size() / 2];
 }
 
 }  // namespace
-
-Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& H) {
-  const Eigen::Index n = H.rows();
-  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index i = 0; i < n; ++i) s[i] = H(i, i) > 0.0 ? 1.0 / std::sqrt(H(i, i)) : 0.0;
-  const Eigen::MatrixXd scaled = s.asDiagonal() * H * s.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (scaled + scaled.transpose()));
-  const Eigen::VectorXd l = eig.eigenvalues();
-  const double floor = 1e-9 * std::max(l.maxCoeff(), 0.0);
-  Eigen::VectorXd inv = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index i = 0; i < n; ++i) inv[i] = l[i] > floor ? 1.0 / l[i] : 0.0;
-  return s.asDiagonal() * eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose() *
-         s.asDiagonal();
-}
 
 Matrix7 pseudoInverse(const Matrix7& H) { return pseudoInverse(Eigen::MatrixXd(H)); }
 

@@ -156,9 +156,8 @@ class ChangeDetector {
 void eliminateNuisance(const ChangeDetector::MatrixA& H, const ChangeDetector::VectorA& g,
                        ChangeDetector::Matrix7* H7, ChangeDetector::Vector7* g7);
 
-// The pseudo-inverse of a Jacobi-scaled H (directions with a scaled eigenvalue under 1e-9 of the
-// largest carry nothing: a time offset on a rig that does not move).
-Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& H);
+// The pseudo-inverse of a Jacobi-scaled H (scaled_factorization.h: directions with a scaled
+// eigenvalue under 1e-9 carry nothing, a time offset on a rig that does not move).
 ChangeDetector::Matrix7 pseudoInverse(const ChangeDetector::Matrix7& H);
 
 }  // namespace estimator_internal

@@ -4,7 +4,6 @@
 // prior and the trusted calibration knew of its old value let go.
 #include <cmath>
 #include <iomanip>
-#include <set>
 #include <sstream>
 
 #include "estimator_impl.h"

@@ -1,7 +1,8 @@
 // Factorizations of a symmetric positive semi-definite matrix after Jacobi scaling, for the
 // marginalization prior (marginalization_factor.h): the information of its blocks spans many
 // orders of magnitude (biases ~1e10, gravity ~1), and scaling by D = diag(A) makes every
-// threshold relative to each direction's own scale. Private to src/core/factors.
+// threshold relative to each direction's own scale. Private to the core (src/core/factors, and
+// the estimator's change test, change_detector.cpp).
 #pragma once
 
 #include <Eigen/Core>
