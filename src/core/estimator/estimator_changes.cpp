@@ -152,6 +152,8 @@ bool Estimator::Impl::attribute(ChangeDetector::Change* change) {
     best_T = T[best];
   }
   if (!(best_T > ChangeDetector::kThreshold)) return false;
+  // A camera held constant (by the options or the motion) cannot be re-opened: nothing then.
+  if (window.problem()->IsParameterBlockConstant(changeSlot(best).extrinsic)) return false;
   if (best != change->slot) {
     change->slot = best;
     change->step = best_step;
