@@ -12,6 +12,37 @@
 #include <utility>
 
 namespace mvis::estimator_internal {
+namespace {
+
+// Blocks not listed whose own information has directions without any (eigenvalues under 1e-10
+// of the block's largest, or 1e-14 of H's largest diagonal element: a tag's corner seen from one
+// state only, its depth along the ray) get a ridge along those directions, 1e-8 of the block's
+// largest eigenvalue (at least 1e-12 of H's largest element). Such a direction v has H v = 0 (H
+// is positive semi-definite and v^T H v = 0): it is coupled to nothing, so the ridge changes no
+// other direction's covariance. False if no block had one. `unlisted`: offset and tangent size
+// of each block not listed.
+bool ridgeUnmeasured(const std::vector<std::pair<int, int>>& unlisted,
+                     Eigen::SparseMatrix<double>* H) {
+  const double largest = H->diagonal().cwiseAbs().maxCoeff();
+  bool any = false;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
+  for (const auto& [offset, t] : unlisted) {
+    eigen.compute(Eigen::MatrixXd(H->block(offset, offset, t, t)));
+    const Eigen::VectorXd& values = eigen.eigenvalues();  // ascending
+    const double top = values[t - 1];
+    const double ridge = std::max(1e-8 * top, 1e-12 * largest);
+    for (int k = 0; k < t && values[k] <= std::max(1e-10 * top, 1e-14 * largest); ++k) {
+      const Eigen::VectorXd v = eigen.eigenvectors().col(k);
+      for (int i = 0; i < t; ++i) {
+        for (int j = 0; j < t; ++j) H->coeffRef(offset + i, offset + j) += ridge * v[i] * v[j];
+      }
+      any = true;
+    }
+  }
+  return any;
+}
+
+}  // namespace
 
 bool BlockCovariance::compute(const std::vector<std::pair<const double*, const double*>>& blocks,
                               ceres::Problem* problem, bool joint_wanted,
@@ -84,12 +115,27 @@ bool BlockCovariance::compute(const std::vector<std::pair<const double*, const d
   }
   Eigen::SparseMatrix<double> H(crs.num_cols, crs.num_cols);
   H.setFromTriplets(entries.begin(), entries.end());
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(H);
-  if (ldlt.info() != Eigen::Success) return false;
-  const Eigen::VectorXd d = ldlt.vectorD();
   // Not positive definite (a direction without information): refused, as ceres::Covariance
-  // refuses a rank-deficient Jacobian.
-  if (!(d.minCoeff() > 1e-14 * d.cwiseAbs().maxCoeff())) return false;
+  // refuses a rank-deficient Jacobian, unless all such directions are in blocks not listed
+  // that nothing measures at all (ridgeUnmeasured).
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  const auto factored = [&] {
+    ldlt.compute(H);
+    if (ldlt.info() != Eigen::Success) return false;
+    const Eigen::VectorXd& d = ldlt.vectorD();
+    return d.minCoeff() > 1e-14 * d.cwiseAbs().maxCoeff();
+  };
+  if (!factored()) {
+    std::vector<std::pair<int, int>> unlisted;
+    for (const double* block : variable) {
+      const auto is = [block](const auto& b) { return b.first == block; };
+      if (std::none_of(blocks.begin(), blocks.end(), is)) {
+        unlisted.push_back(columns.at(block));
+      }
+    }
+    if (!ridgeUnmeasured(unlisted, &H) || !factored()) return false;
+  }
+  const Eigen::VectorXd d = ldlt.vectorD();
   // H = P^T L D L^T P, so H^-1 = W^T W with W = D^-1/2 L^-1 P: a block's rows of the inverse
   // meet another's as W_a^T W_b. Only the forward solve, and Eigen's skips the columns of L the
   // unit vectors do not reach: a batch's pose covariances took 4x less than with full solves.
