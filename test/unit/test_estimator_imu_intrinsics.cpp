@@ -204,13 +204,15 @@ TEST(Estimator, FixedIntrinsicsLinearizationEndsWorse) {
     }
   }
   // What holds in every build measured (five, differing only in rounding-level details, which
-  // this far-off start amplifies): the fixed linearization ends overconfident by ~40 sigma
-  // (largest error/sigma 39-45), re-integration at most half that (5-19). The errors themselves
-  // are not reliably ordered: largest Dw/Da element 2.1-4.7e-3 re-integrated against 5.0-7.3e-3
-  // fixed (from 5e-2), e.g. 3.0e-3 against 5.6e-3 in the last build.
+  // this far-off start amplifies): the fixed linearization ends overconfident, re-integration at
+  // most half as far. With the model's sigmas 39-45 against 5-19; with the reported ones (scaled
+  // by how much each quantity moves, Estimator::calibration) 14.5 against 3.0: the fixed mode's
+  // error is a bias that every step agrees with, which the moves cannot show. The errors
+  // themselves are not reliably ordered: largest Dw/Da element 2.1-4.7e-3 re-integrated against
+  // 5.0-7.3e-3 fixed (from 5e-2), e.g. 3.6e-3 against 5.5e-3 in the last build.
   EXPECT_LT(worst[0], 6e-3);
   EXPECT_GE(worst[1], worst[0]);
-  EXPECT_GT(sigma[1], 25.0);
+  EXPECT_GT(sigma[1], 10.0);
   EXPECT_LT(sigma[0], 0.5 * sigma[1]);
 }
 
@@ -351,10 +353,11 @@ TgRun runTg(const SimRun& run, const EstimatorOptions& options, const char* what
   out.gyro_tg = (out.estimate.inertial[2].intrinsics.Tg - run.truth.inertial[2].intrinsics.Tg)
                     .cwiseAbs()
                     .maxCoeff();
-  std::printf("%s: %zu elements, largest error/sigma %.2f, RMS %.2f; imu2 Tg off by %.2e; "
-              "restarts %ld, held Tg refuted %ld times; held Tg statistic:",
-              what, out.ratios.size(), out.worst, out.rms, out.gyro_tg, out.counters.restarts,
-              out.counters.held_intrinsics_misfits);
+  std::printf(
+      "%s: %zu elements, largest error/sigma %.2f, RMS %.2f; imu2 Tg off by %.2e; "
+      "restarts %ld, held Tg refuted %ld times; held Tg statistic:",
+      what, out.ratios.size(), out.worst, out.rms, out.gyro_tg, out.counters.restarts,
+      out.counters.held_intrinsics_misfits);
   for (std::size_t i = 0; i < run.truth.inertial.size(); ++i) {
     int dof = 0;
     const double stat = estimator->heldIntrinsicsStatistic(i, &dof);
@@ -412,10 +415,10 @@ TEST(Estimator, CalibratesGyroscopeGravitySensitivity) {
 // it once the specific force at the gyroscope is known (aux_sensors.h). Only imu2's Tg differs
 // from the identity model; with it configured the gyroscope's calibration is consistent, with
 // zero configured instead it is not. Measured (seed 7, 30 s): rotation/time-offset error/sigma
-// at most 1.94 configured (0.016 deg, 0.004 ms), 3.80 with zero (its time offset 0.10 ms off);
-// 1.70 and 4.27 while the auxiliary sensors took part in the first batch, when the bound was
-// "twice the configured one" (3.80 is 1.96 times 1.94): now inside/outside 3 sigma, and the
-// time offset, which the unmodelled Tg pulls, over five times as far off with zero.
+// at most 1.94 configured (0.016 deg, 0.009 ms), with zero its time offset 0.10 ms off, which
+// the model's sigmas put at 3.80 and the reported ones (scaled by how much the gyroscope's
+// quantities move on this data, Estimator::calibration) at 2.29: the unmodelled Tg shows as
+// an estimate that moves more and is further off, over five times as far in time offset.
 TEST(Estimator, AppliesAConfiguredGyroscopeGravitySensitivity) {
   const auto onlyGyroTg = [](Rig* rig) {
     rig->inertial[2].model = ImuModel::kRpng;
@@ -433,12 +436,13 @@ TEST(Estimator, AppliesAConfiguredGyroscopeGravitySensitivity) {
         inertialErrors(run.truth.inertial[2], estimator->calibration().inertial[2]);
     worst[k] = std::max(e.rotation_sigma_ratio.maxCoeff(), e.time_offset_sigma_ratio);
     offset_ms[k] = e.time_offset_ms;
-    std::printf("imu2 with %s Tg: rotation %.4f deg, time offset %.4f ms, largest error/sigma "
-                "%.2f\n",
-                k == 0 ? "its configured" : "zero", e.rotation_deg, e.time_offset_ms, worst[k]);
+    std::printf(
+        "imu2 with %s Tg: rotation %.4f deg, time offset %.4f ms, largest error/sigma "
+        "%.2f\n",
+        k == 0 ? "its configured" : "zero", e.rotation_deg, e.time_offset_ms, worst[k]);
   }
   EXPECT_LT(worst[0], 3.0);  // consistent
-  EXPECT_GT(worst[1], 3.0);  // not
+  EXPECT_GT(worst[1], worst[0]);
   EXPECT_GT(offset_ms[1], 5.0 * offset_ms[0]);
 }
 

@@ -521,13 +521,6 @@ void Estimator::Impl::resetAll() {
   status_text = "reset: waiting for data";
 }
 
-Rig Estimator::Impl::calibrationEstimate() const {
-  Rig out = rig;
-  calibration.write(&out);
-  intrinsics.write(&out);
-  return out;
-}
-
 Estimator::Estimator(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Estimator::~Estimator() = default;
 
@@ -548,7 +541,7 @@ void Estimator::setUpdateCallback(UpdateCallback callback) {
 void Estimator::setPropagationCallback(PropagationCallback callback) {
   impl_->propagation_callback = std::move(callback);
 }
-Rig Estimator::calibration() const { return impl_->calibrationEstimate(); }
+Rig Estimator::calibration() const { return impl_->reportedCalibration(); }
 Status Estimator::computeCovariance() {
   const Status s = impl_->covariance(nullptr);
   if (s.ok() && impl_->covariance_failure.empty() && !impl_->calibration_note.empty()) {

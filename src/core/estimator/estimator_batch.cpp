@@ -449,6 +449,7 @@ StatusOr<BatchSummary> Estimator::Impl::solveBatch(
     clustered.emplace();
     clustered->clusters = rowClusters();
   }
+  batch_solved = true;
   const Status cov = covariance(&newest, clustered ? &*clustered : nullptr);
   if (clustered) {
     out.sigma_ratio_min = clustered->ratio_min;

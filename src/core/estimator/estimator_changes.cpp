@@ -59,13 +59,17 @@ Estimator::Impl::ChangeSlot Estimator::Impl::changeSlot(std::size_t slot) {
 }
 
 ChangeDetector::Matrix7 Estimator::Impl::referenceCovariance(const ChangeSlot& s) const {
-  // The current estimate's covariance, scaled as the failure checks scale it (a gyroscope's
-  // translation, which it does not have, at 1: its step there is zero).
-  ChangeDetector::Vector7 sd = ChangeDetector::Vector7::Ones();
+  // The current estimate's covariance, scaled as it is reported (reportedCalibration: each
+  // part by how much more it moves than its covariance allows; a gyroscope's translation, which
+  // it does not have, at 1: its step there is zero).
+  ChangeDetector::Vector7 variance = ChangeDetector::Vector7::Ones();
   const Eigen::VectorXd extrinsic = calibration.latestStd(s.extrinsic);
-  sd.head(extrinsic.size()) = extrinsic;
-  sd[6] = calibration.latestStd(s.time_offset)[0];
-  return (sd.cwiseAbs2() * trusted.inflation()).asDiagonal();
+  for (int k = 0; k < extrinsic.size(); ++k) {
+    variance[k] = extrinsic[k] * extrinsic[k] * trusted.inflation(s.extrinsic, k / 3);
+  }
+  const double t = calibration.latestStd(s.time_offset)[0];
+  variance[6] = t * t * trusted.inflation(s.time_offset, 0);
+  return variance.asDiagonal();
 }
 
 bool Estimator::Impl::deferFailure(const std::string& why, TimeNs t) {

@@ -188,6 +188,11 @@ struct Estimator::Impl {
   // reading; else the message saying it is not.
   Status plausibleStamp(const std::string& sensor, TimeNs t);
   Rig calibrationEstimate() const;
+  // calibrationEstimate() as reported (Estimator::calibration): online, each estimated block's
+  // standard deviations times the square root of its inflation (TrustedCalibration::inflation:
+  // how much more it moves on this data than its covariance allows); a batch's as computed.
+  Rig reportedCalibration();
+  bool batch_solved = false;  // the batch's covariance is the calibration's
   // Status for the caller: a restart not yet reported, else `s`, or the auxiliary sensors'
   // pending warning if s is fine.
   Status withWarning(Status s);

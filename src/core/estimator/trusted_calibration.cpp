@@ -18,6 +18,13 @@ int tangentSize(const TrustedCalibration::Block& b) {
 }
 
 // The tangent difference Minus(x, x0) of a block's values x from x0 (its values in a snapshot).
+// A block's parts (TrustedCalibration::inflation): first element and size in its tangent.
+std::vector<std::pair<int, int>> partsOf(int tangent) {
+  if (tangent == 6) return {{0, 3}, {3, 3}};
+  if (tangent == 8) return {{0, 4}, {4, 4}};
+  return {{0, tangent}};
+}
+
 Eigen::VectorXd minus(const TrustedCalibration::Block& b, const double* x, const double* x0) {
   Eigen::VectorXd d(tangentSize(b));
   if (b.manifold != nullptr) {
@@ -66,12 +73,15 @@ void TrustedCalibration::setConfigured(std::vector<Block> blocks) {
   pending_ = Snapshot();
   last_ = Snapshot();
   moves_.clear();
+  span_.clear();
+  long_moves_.clear();
   inflation_ = 1.0;
 }
 
 void TrustedCalibration::distrust(TimeNs t, TimeNs lookback) {
   pending_ = Snapshot();
   last_ = Snapshot();
+  span_.clear();
   // The oldest stays: going back to the configured calibration would align the clocks again,
   // on whatever the fault still does to them.
   while (history_.size() > 1 && history_.back().time > t - lookback) history_.pop_back();
@@ -82,6 +92,15 @@ void TrustedCalibration::forget(const std::vector<const double*>& blocks) {
   last_ = Snapshot();
   forget(blocks, &configured_);
   for (Snapshot& s : history_) forget(blocks, &s);
+  for (Snapshot& s : span_) forget(blocks, &s);
+  // A moved sensor's moves before are not its moves now.
+  const auto moved = [&](const Move& m) {
+    return std::find(blocks.begin(), blocks.end(), m.x) != blocks.end();
+  };
+  for (auto* moves : {&moves_, &long_moves_}) {
+    for (auto& offer : *moves)
+      offer.erase(std::remove_if(offer.begin(), offer.end(), moved), offer.end());
+  }
 }
 
 void TrustedCalibration::forget(const std::vector<const double*>& blocks, Snapshot* s) {
@@ -191,23 +210,54 @@ TrustedCalibration::Verdict TrustedCalibration::offer(std::vector<Block> blocks,
   if (worst[0] <= kInnovationSigma) said.failure.clear();
   if (worst[1] <= kInnovationSigma) said.inconsistent.clear();
   if (said.failure.empty() && last_.valid) {
-    std::vector<double> ratios;
-    for (const Innovation& i : innovations(last_, p)) ratios.push_back(i.ratio);
-    moves_.push_back(std::move(ratios));
+    std::vector<Move> offer;
+    for (const Innovation& i : innovations(last_, p)) {
+      offer.push_back({i.x, i.ratio, i.part_variance});
+    }
+    moves_.push_back(std::move(offer));
     if (moves_.size() > kMovesKept) moves_.pop_front();
     // The lower median of every block's ratios over the offers kept.
     std::vector<double> pooled;
-    for (const auto& offer : moves_) pooled.insert(pooled.end(), offer.begin(), offer.end());
+    for (const auto& kept : moves_) {
+      for (const Move& m : kept) pooled.push_back(m.ratio);
+    }
     if (!pooled.empty()) {
       std::nth_element(pooled.begin(), pooled.begin() + (pooled.size() - 1) / 2, pooled.end());
       inflation_ = std::clamp(pooled[(pooled.size() - 1) / 2], 1.0, kMaxInflation);
     }
+  }
+  if (said.failure.empty()) {
+    if (!span_.empty()) {
+      std::vector<Move> offer;
+      for (const Innovation& i : innovations(span_.front(), p)) {
+        offer.push_back({i.x, i.ratio, i.part_variance});
+      }
+      long_moves_.push_back(std::move(offer));
+      if (long_moves_.size() > kMovesKept) long_moves_.pop_front();
+    }
+    span_.push_back(p);
+    if (span_.size() > kMovesKept) span_.pop_front();
   }
   // A failed offer is neither trusted nor counted; it is the next one's reference all the same
   // (a restart, if there is one, forgets it).
   last_ = p;
   if (said.failure.empty()) pending_ = std::move(p);
   return said;
+}
+
+double TrustedCalibration::inflation(const double* x, int part) const {
+  const auto mean = [x, part](const std::deque<std::vector<Move>>& moves) {
+    double sum = 0.0;
+    int n = 0;
+    for (const auto& offer : moves) {
+      for (const Move& m : offer) {
+        if (m.x != x || part >= static_cast<int>(m.variance.size())) continue;
+        if (std::isfinite(m.variance[part])) sum += m.variance[part], ++n;
+      }
+    }
+    return n == 0 ? 0.0 : sum / n;
+  };
+  return std::clamp(std::max(mean(moves_), mean(long_moves_)), inflation_, kMaxInflation);
 }
 
 std::vector<TrustedCalibration::Innovation> TrustedCalibration::innovations(const Snapshot& from,
@@ -234,14 +284,22 @@ std::vector<TrustedCalibration::Innovation> TrustedCalibration::innovations(cons
     Innovation i;
     i.intrinsic = b.intrinsic;
     i.name = b.name;
+    i.x = b.x;
     if (w.allFinite()) {
       // The chi-square distribution's median for n degrees of freedom (Wilson-Hilferty).
       const double n = static_cast<double>(w.size());
       const double median = n * std::pow(1.0 - 2.0 / (9.0 * n), 3);
       i.largest = w.maxCoeff();
       i.ratio = w.squaredNorm() / median;
+      i.variance = w.squaredNorm() / n;
+      for (const auto& [first, size] : partsOf(static_cast<int>(d.size()))) {
+        const Eigen::MatrixXd Sp = S.block(first, first, size, size);
+        const Eigen::VectorXd dp = d.segment(first, size);
+        i.part_variance.push_back(dp.dot(Sp.ldlt().solve(dp)) / size);
+      }
     } else {
-      i.largest = i.ratio = std::numeric_limits<double>::infinity();
+      i.largest = i.ratio = i.variance = std::numeric_limits<double>::infinity();
+      i.part_variance.assign(partsOf(static_cast<int>(d.size())).size(), i.variance);
     }
     out.push_back(std::move(i));
   }
