@@ -161,3 +161,7 @@ mvis_core_test(test_estimator_landmarks test/unit/test_estimator_landmarks.cpp)
 mvis_core_test(test_estimator_batch test/unit/test_estimator_batch.cpp)
 mvis_core_test(test_block_covariance test/unit/test_block_covariance.cpp)
 target_include_directories(test_block_covariance PRIVATE ${PROJECT_SOURCE_DIR}/src/core/estimator)
+# Every YAML file mvis writes, read by PyYAML (YAML 1.1: Kalibr's and ROS's Python tools).
+add_test(NAME python_result_yaml
+  COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/yaml/check_result_yaml.py
+    $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)

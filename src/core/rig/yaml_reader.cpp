@@ -229,14 +229,22 @@ std::vector<std::string> numberedEntries(const YAML::Node& root, const std::stri
 }
 
 std::string formatNumber(double value) {
+  // YAML 1.1 (PyYAML, and through it Kalibr's and ROS's Python tools) reads a float only with a
+  // dot and a signed exponent ("4.0e+02", not "4e+02"), and NaN and infinity as .nan and .inf;
+  // yaml-cpp reads these too.
+  if (std::isnan(value)) return ".nan";
+  if (std::isinf(value)) return value > 0.0 ? ".inf" : "-.inf";
   char buffer[40];
   for (int precision = 1; precision <= 17; ++precision) {
     std::snprintf(buffer, sizeof(buffer), "%.*g", precision, value);
     if (std::strtod(buffer, nullptr) == value) break;
   }
   std::string text = buffer;
-  // Keep it visibly a floating-point number.
-  if (text.find_first_of(".eEn") == std::string::npos) text += ".0";
+  // Keep it visibly a floating-point number: a dot in the mantissa ("%g" signs the exponent).
+  if (text.find('.') == std::string::npos) {
+    const std::size_t e = text.find('e');
+    text.insert(e == std::string::npos ? text.size() : e, ".0");
+  }
   return text;
 }
 
