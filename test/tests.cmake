@@ -37,8 +37,7 @@ add_rostest(test/ros/bad_config.test DEPENDENCIES mvis_ros mvis_node)
 add_rostest(test/ros/nodelet_compressed.test DEPENDENCIES mvis_ros mvis_node)
 
 mvis_core_test(test_tag_detector test/unit/test_tag_detector.cpp test/unit/board_images.cpp)
-mvis_core_test(test_tag_corners test/unit/test_tag_corners.cpp test/unit/board_images.cpp
-  test/unit/coverage_renderer.cpp)
+mvis_core_test(test_tag_corners test/unit/test_tag_corners.cpp test/unit/board_images.cpp)
 mvis_core_test(test_aprilgrid_real test/unit/test_aprilgrid_real.cpp)
 mvis_core_test(test_fuzz test/unit/test_fuzz.cpp)
 mvis_core_test(test_determinism test/unit/test_determinism.cpp)

@@ -70,6 +70,14 @@ TEST(SimulationConfig, RefusesBadFilesNamingTheKey) {
             "sim.yaml: perturbation: camera_roll_deg: unknown key (a typo? see "
             "doc/conventions.md for the keys of this file)");
   EXPECT_EQ(error("duration_s: 5\n"), "sim.yaml: camera_rate_hz: missing");
+  EXPECT_EQ(error("camera_rate_hz: [30, 25]\nrenderer: raytraced\n"),
+            "sim.yaml: renderer: unknown renderer 'raytraced' (expected sampled or coverage)");
+  EXPECT_EQ(error("camera_rate_hz: [30, 25]\nimage_gamma: 2.2\n"),
+            "sim.yaml: image_gamma: needs renderer: coverage");
+  EXPECT_EQ(error("camera_rate_hz: [30, 25]\nrenderer: coverage\nimage_vignetting: 1.5\n"),
+            "sim.yaml: image_vignetting: must be under 1");
+  EXPECT_EQ(error("camera_rate_hz: [30, 25]\nrenderer: coverage\nimage_gamma: 2.2\n"),
+            "(accepted)");
 }
 
 // Sensors that move: read by name, in degrees and metres; an unknown key or sensor is refused.

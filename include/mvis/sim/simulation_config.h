@@ -40,7 +40,12 @@ struct SimulationConfig {
   int supersample = 3;                       // images: anti-aliasing samples per pixel and axis
   BoardKind board = BoardKind::kKalibrGrid;  // images: the printed board
   double image_blur_px = 0.0;                // images: Gaussian blur of the optics [px]
-  bool imu_noise = true;                     // white noise and bias random walks on inertial data
+  // images: the renderer. false: TagBoardRenderer (sampled reflectance); true: exact area
+  // coverage (coverage_renderer.h), with a camera response and vignetting.
+  bool coverage_renderer = false;
+  double image_gamma = 1.0;        // coverage renderer: response, out = 255 (in/255)^(1/gamma)
+  double image_vignetting = 0.0;   // coverage renderer: irradiance lost at the image's corners
+  bool imu_noise = true;           // white noise and bias random walks on inertial data
   int threads = 2;                 // images: rendering threads (same images for any number)
   PerturbationSizes perturbation;  // of the written initial guess
   std::vector<SensorMove> moves;   // sensors that move during the recording

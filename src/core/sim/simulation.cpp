@@ -1,7 +1,11 @@
 #include "mvis/sim/simulation.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+
+#include "mvis/camera/camera_model.h"
+#include "mvis/sim/coverage_renderer.h"
 
 namespace mvis {
 namespace {
@@ -82,7 +86,7 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
   }
 
   std::unique_ptr<TagBoardRenderer> renderer;
-  if (config.camera_output == CameraOutput::kImages) {
+  if (config.camera_output == CameraOutput::kImages && !config.coverage_renderer) {
     auto created = TagBoardRenderer::create(*truth.target, config.board);
     if (!created.ok()) return created.status();
     renderer = std::move(created).value();
@@ -103,9 +107,45 @@ StatusOr<std::vector<StampedPose>> runSimulation(const Rig& truth, const Simulat
       }
       continue;
     }
+    const TimeNs period = fromSeconds(1.0 / config.camera_rate_hz[c]);
+    if (config.coverage_renderer) {
+      CoverageOptions options;
+      options.width = truth.cameras[c].resolution[0];
+      options.height = truth.cameras[c].resolution[1];
+      options.kalibr_squares = config.board == BoardKind::kKalibrGrid;
+      options.blur_sigma = config.image_blur_px;
+      options.gamma = config.image_gamma;
+      options.vignetting = config.image_vignetting;
+      options.noise_sigma = config.image_noise_sigma;
+      options.subdivisions = 4;  // the lens bends a tag cell's sides by well under 0.01 px
+      std::uint32_t frame_index = 0;
+      for (TimeNs stamp = t0; stamp <= end; stamp += period, ++frame_index) {
+        options.seed = static_cast<std::uint32_t>(seed * 100000 + frame_index);
+        const Rig& rig = rigAt(moved, stamp);
+        const SE3 T_C_G = cameraPose(rig, c, base, t0, stamp).inverse();
+        const Camera& camera = rig.cameras[c];
+        auto image = renderByCoverage(
+            *truth.target,
+            [&](const Eigen::Vector2d& board, Eigen::Vector2d* pixel) {
+              // Only near the field of view (undistorted within half an image of it): beyond,
+              // a polynomial distortion folds points back into the image.
+              const Eigen::Vector3d p = T_C_G * Eigen::Vector3d(board.x(), board.y(), 0.0);
+              const Eigen::Vector4d& k = camera.intrinsics;
+              const double u = k[0] * p.x() / p.z() + k[2], v = k[1] * p.y() / p.z() + k[3];
+              if (!(std::abs(u - 0.5 * options.width) < options.width &&
+                    std::abs(v - 0.5 * options.height) < options.height)) {
+                return false;
+              }
+              return projectToPixel(camera, p, pixel);
+            },
+            options);
+        if (!image.ok()) return image.status();
+        sink->image(c, stamp, image.value());
+      }
+      continue;
+    }
     // The sample pattern is fixed per camera; the noise changes per frame.
     const CameraRays rays(truth.cameras[c], config.supersample, static_cast<std::uint32_t>(seed));
-    const TimeNs period = fromSeconds(1.0 / config.camera_rate_hz[c]);
     RenderOptions render;
     render.supersample = config.supersample;
     render.noise_sigma = config.image_noise_sigma;

@@ -49,10 +49,11 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
                                                  const std::string& path, std::size_t num_cameras) {
   return rig_io::guardedParse(path, [&] {
     const EntryReader entry(rig_io::parseYamlText(yaml_text, path), path, "");
-    entry.rejectUnknownKeys({"duration_s", "seed", "start_time_s", "motion", "height_m",
-                             "amplitude", "camera_rate_hz", "camera_output", "pixel_noise_px",
-                             "image_noise_sigma", "supersample", "threads", "imu_noise", "board",
-                             "image_blur_px", "perturbation", "moves"});
+    entry.rejectUnknownKeys(
+        {"duration_s",  "seed",           "start_time_s",     "motion",         "height_m",
+         "amplitude",   "camera_rate_hz", "camera_output",    "pixel_noise_px", "image_noise_sigma",
+         "supersample", "threads",        "imu_noise",        "board",          "image_blur_px",
+         "renderer",    "image_gamma",    "image_vignetting", "perturbation",   "moves"});
     SimulationConfig c;
     if (entry.has("duration_s")) c.duration_s = entry.positiveNumber("duration_s");
     if (entry.has("seed")) {
@@ -102,6 +103,22 @@ StatusOr<SimulationConfig> parseSimulationConfig(const std::string& yaml_text,
       entry.fail("board", "unknown board '" + board + "' (expected kalibr or plain)");
     }
     c.image_blur_px = nonNegative(entry, "image_blur_px", c.image_blur_px);
+    const std::string renderer = entry.text("renderer", "sampled");
+    if (renderer != "sampled" && renderer != "coverage") {
+      entry.fail("renderer", "unknown renderer '" + renderer + "' (expected sampled or coverage)");
+    }
+    c.coverage_renderer = renderer == "coverage";
+    if (entry.has("image_gamma")) {
+      c.image_gamma = entry.positiveNumber("image_gamma");
+      if (!c.coverage_renderer && c.image_gamma != 1.0) {
+        entry.fail("image_gamma", "needs renderer: coverage");
+      }
+    }
+    c.image_vignetting = nonNegative(entry, "image_vignetting", c.image_vignetting);
+    if (c.image_vignetting >= 1.0) entry.fail("image_vignetting", "must be under 1");
+    if (!c.coverage_renderer && c.image_vignetting != 0.0) {
+      entry.fail("image_vignetting", "needs renderer: coverage");
+    }
     if (entry.has("threads")) c.threads = entry.positiveInteger("threads");
     if (entry.has("imu_noise")) {
       const std::string flag = entry.text("imu_noise");

@@ -1,4 +1,4 @@
-#include "coverage_renderer.h"
+#include "mvis/sim/coverage_renderer.h"
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
@@ -6,14 +6,14 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
-#include <vector>
 
-namespace mvis::test {
+namespace mvis {
 namespace {
 
 using Polygon = std::vector<Eigen::Vector2d>;
 
-// Sutherland-Hodgman: the part of `in` on the side a * x + b * y <= c.
+// Sutherland-Hodgman: the part of `in` on the side a x + b y <= c (the clip region is convex,
+// the polygon need not be: pieces it splits into are joined along the line, at no area).
 Polygon clip(const Polygon& in, double a, double b, double c) {
   Polygon out;
   const std::size_t n = in.size();
@@ -22,9 +22,8 @@ Polygon clip(const Polygon& in, double a, double b, double c) {
     const Eigen::Vector2d& q = in[(i + 1) % n];
     const double fp = a * p.x() + b * p.y() - c, fq = a * q.x() + b * q.y() - c;
     if (fp <= 0.0) out.push_back(p);
-    if ((fp < 0.0 && fq > 0.0) || (fp > 0.0 && fq < 0.0)) {
+    if ((fp < 0.0 && fq > 0.0) || (fp > 0.0 && fq < 0.0))
       out.push_back(p + (fp / (fp - fq)) * (q - p));
-    }
   }
   return out;
 }
@@ -39,12 +38,15 @@ double area(const Polygon& p) {
   return 0.5 * std::abs(twice);
 }
 
-// A black rectangle [x0, x1] x [y0, y1] on the board.
 struct Rect {
-  double x0, y0, x1, y1;
+  double x0, y0, x1, y1;  // [m] on the board
 };
 
-std::vector<Rect> blackRegions(const AprilGrid& grid, bool kalibr_squares) {
+// The board's black rectangles: per tag, runs of black cells per row of libapriltag's pattern.
+StatusOr<std::vector<Rect>> blackRegions(const AprilGrid& grid, bool kalibr_squares) {
+  if (grid.tag_family != "tag36h11") {
+    return Status::Error("the coverage renderer draws tag36h11 only, not " + grid.tag_family);
+  }
   std::vector<Rect> rects;
   apriltag_family_t* family = tag36h11_create();
   const int total = family->total_width;  // 10: a white ring around the black border
@@ -63,11 +65,11 @@ std::vector<Rect> blackRegions(const AprilGrid& grid, bool kalibr_squares) {
     const double y = pitch * (id / grid.tag_cols) - ring;
     for (int r = 0; r < image->height; ++r) {
       const double top = y + (total - r) * cell, bottom = top - cell;
+      const auto black = [&](int col) {
+        const bool ring_cell = r == 0 || col == 0 || r == total - 1 || col == total - 1;
+        return (kalibr_squares && ring_cell) || image->buf[r * image->stride + col] < 128;
+      };
       for (int c = 0; c < image->width;) {
-        const auto black = [&](int col) {
-          const bool ring_cell = r == 0 || col == 0 || r == total - 1 || col == total - 1;
-          return (kalibr_squares && ring_cell) || image->buf[r * image->stride + col] < 128;
-        };
         if (!black(c)) {
           ++c;
           continue;
@@ -92,23 +94,23 @@ std::vector<Rect> blackRegions(const AprilGrid& grid, bool kalibr_squares) {
   return rects;
 }
 
-// A kernel sampled at integer offsets, normalized; then rows and columns.
+// A kernel sampled at integer offsets, normalized; rows, then columns; edge pixels repeated.
 cv::Mat blur(const cv::Mat& in, double sigma) {
   const int radius = static_cast<int>(std::ceil(4.0 * sigma));
   std::vector<double> k(2 * radius + 1);
   double sum = 0.0;
-  for (int i = -radius; i <= radius; ++i)
+  for (int i = -radius; i <= radius; ++i) {
     sum += k[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
+  }
   for (double& v : k) v /= sum;
-  const auto pass = [&](const cv::Mat& src, bool rows) {
+  const auto pass = [&](const cv::Mat& src, bool down) {
     cv::Mat dst(src.size(), CV_64FC1);
     for (int r = 0; r < src.rows; ++r) {
       for (int c = 0; c < src.cols; ++c) {
         double v = 0.0;
         for (int i = -radius; i <= radius; ++i) {
-          // Edge pixels repeated beyond the image.
-          const int rr = rows ? std::clamp(r + i, 0, src.rows - 1) : r;
-          const int cc = rows ? c : std::clamp(c + i, 0, src.cols - 1);
+          const int rr = down ? std::clamp(r + i, 0, src.rows - 1) : r;
+          const int cc = down ? c : std::clamp(c + i, 0, src.cols - 1);
           v += k[i + radius] * src.at<double>(rr, cc);
         }
         dst.at<double>(r, c) = v;
@@ -121,36 +123,47 @@ cv::Mat blur(const cv::Mat& in, double sigma) {
 
 }  // namespace
 
-double pixelCoverage(const Eigen::Vector2d q[4], double cx, double cy) {
-  Polygon p(q, q + 4);
-  p = clip(p, 1.0, 0.0, cx + 0.5);
+double pixelCoverage(const std::vector<Eigen::Vector2d>& polygon, double cx, double cy) {
+  Polygon p = clip(polygon, 1.0, 0.0, cx + 0.5);
   p = clip(p, -1.0, 0.0, -(cx - 0.5));
   p = clip(p, 0.0, 1.0, cy + 0.5);
   p = clip(p, 0.0, -1.0, -(cy - 0.5));
   return p.size() < 3 ? 0.0 : area(p);
 }
 
-cv::Mat renderByCoverage(const AprilGrid& grid, const SE3& T_cam_board, const CoverageOptions& o) {
+StatusOr<cv::Mat> renderByCoverage(const AprilGrid& grid, const BoardToPixel& project,
+                                   const CoverageOptions& o) {
+  auto regions = blackRegions(grid, o.kalibr_squares);
+  if (!regions.ok()) return regions.status();
   cv::Mat covered = cv::Mat::zeros(o.height, o.width, CV_64FC1);
-  const auto project = [&](double x, double y) {
-    const Eigen::Vector3d X = T_cam_board * Eigen::Vector3d(x, y, 0.0);
-    return Eigen::Vector2d(o.intrinsics[0] * X.x() / X.z() + o.intrinsics[2],
-                           o.intrinsics[1] * X.y() / X.z() + o.intrinsics[3]);
-  };
-  for (const Rect& rect : blackRegions(grid, o.kalibr_squares)) {
-    const Eigen::Vector2d q[4] = {project(rect.x0, rect.y0), project(rect.x1, rect.y0),
-                                  project(rect.x1, rect.y1), project(rect.x0, rect.y1)};
-    double lo_x = q[0].x(), hi_x = lo_x, lo_y = q[0].y(), hi_y = lo_y;
-    for (const auto& v : q) {
+  const int n = std::max(1, o.subdivisions);
+  Polygon outline;
+  for (const Rect& rect : regions.value()) {
+    const Eigen::Vector2d corners[4] = {
+        {rect.x0, rect.y0}, {rect.x1, rect.y0}, {rect.x1, rect.y1}, {rect.x0, rect.y1}};
+    outline.clear();
+    bool visible = true;
+    for (int side = 0; side < 4 && visible; ++side) {
+      for (int k = 0; k < n && visible; ++k) {
+        const double s = static_cast<double>(k) / n;
+        Eigen::Vector2d pixel;
+        visible = project((1.0 - s) * corners[side] + s * corners[(side + 1) % 4], &pixel);
+        outline.push_back(pixel);
+      }
+    }
+    if (!visible) continue;  // partly behind the camera: not drawn (not in view anyway)
+    double lo_x = outline[0].x(), hi_x = lo_x, lo_y = outline[0].y(), hi_y = lo_y;
+    for (const auto& v : outline) {
       lo_x = std::min(lo_x, v.x()), hi_x = std::max(hi_x, v.x());
       lo_y = std::min(lo_y, v.y()), hi_y = std::max(hi_y, v.y());
     }
+    if (hi_x < -1.0 || hi_y < -1.0 || lo_x > o.width || lo_y > o.height) continue;
     const int c0 = std::max(0, static_cast<int>(std::floor(lo_x + 0.5)));
     const int c1 = std::min(o.width - 1, static_cast<int>(std::ceil(hi_x - 0.5)));
     const int r0 = std::max(0, static_cast<int>(std::floor(lo_y + 0.5)));
     const int r1 = std::min(o.height - 1, static_cast<int>(std::ceil(hi_y - 0.5)));
     for (int r = r0; r <= r1; ++r) {
-      for (int c = c0; c <= c1; ++c) covered.at<double>(r, c) += pixelCoverage(q, c, r);
+      for (int c = c0; c <= c1; ++c) covered.at<double>(r, c) += pixelCoverage(outline, c, r);
     }
   }
   cv::Mat irradiance(o.height, o.width, CV_64FC1);
@@ -180,4 +193,4 @@ cv::Mat renderByCoverage(const AprilGrid& grid, const SE3& T_cam_board, const Co
   return image;
 }
 
-}  // namespace mvis::test
+}  // namespace mvis
