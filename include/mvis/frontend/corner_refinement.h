@@ -59,10 +59,37 @@ struct CornerRefinementOptions {
 // rows and columns -1 and width are the white ring: true for black.
 using TagCells = std::function<bool(int row, int col)>;
 
+// How far the edges of plain tags lie from where the camera's response puts them (see
+// measureEdgeShift): per tag, the sum and count of its stripes' measurements [px, inwards].
+struct EdgeShift {
+  double sum = 0.0;
+  int count = 0;
+};
+
 // Refines `tag` in place from `gray` (CV_8UC1). Returns false, leaving the tag unchanged, when
 // neither all four junctions (with `junctions`) nor the edges can be measured: a side without a
 // usable cell, a corner that would move more than max_shift_px.
 bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
                       const CornerRefinementOptions& options);
+
+// Plain tags (a one-cell border, white ring): a camera's response that is not linear (gamma)
+// moves every edge the area measure above finds into the black, by the same amount on every
+// tag of an image (it depends on the blur and the response, not on the tag): the tags read
+// smaller. What it does not move is the centre of a black stripe between two white regions,
+// the border where the data cell behind it is white: a monotone response and a symmetric blur
+// move its two edges into it alike. Where a refined tag's side has such stripes whose
+// neighbouring columns are white behind too (so that nothing dark within a cell of the stripe's
+// inner side makes it asymmetric), each stripe's centre (its two edges' midpoint, each edge
+// measured as above in a window half a cell wide) less half a cell is where the side is; its
+// offset from the refined side is added to `shift` (positive: the side lies inside the true
+// edge). The half cell is the refined square's, itself short by the shift: the measured offset
+// is (1 - 1 / width) of the true one, corrected here.
+void measureEdgeShift(const cv::Mat& gray, const TagObservation& tag, int width,
+                      const TagCells& black, const CornerRefinementOptions& options,
+                      EdgeShift* shift);
+
+// Moves a refined tag's four sides outwards by `px` [px] (corners at the moved sides'
+// intersections).
+void moveTagSides(TagObservation* tag, double px);
 
 }  // namespace mvis

@@ -28,9 +28,12 @@ struct TagDetectorOptions {
                                     // codes and corners are read at full resolution
   int max_hamming = 1;              // bits the decoder may correct (0..2); more invites wrong ids
   bool refine_corners = true;       // sub-pixel corners from the edges (corner_refinement.h)
-  double min_contrast = 20.0;       // mvis engine: black to white of a tag at least [grey levels]
-  double tag_spacing = 0.0;         // the board's gap between tags / tag size (aprilgrid.yaml's
-                                    // tagSpacing); 0: a lone tag, white only in its ring
+  // Plain tags: the sides moved by what the tags' stripes show of the camera's response (a
+  // gamma moves edges into the black; measureEdgeShift), one shift per image.
+  bool response_correction = true;
+  double min_contrast = 20.0;  // mvis engine: black to white of a tag at least [grey levels]
+  double tag_spacing = 0.0;    // the board's gap between tags / tag size (aprilgrid.yaml's
+                               // tagSpacing); 0: a lone tag, white only in its ring
   // libapriltag engine only:
   double blur_sigma = 0.0;   // Gaussian blur [px] before quad detection; < 0 sharpens
   bool refine_edges = true;  // snap quad edges to strong gradients at full resolution

@@ -1,5 +1,6 @@
 #include "mvis/frontend/corner_refinement.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -297,7 +298,107 @@ std::array<bool, 4> refineJunctions(const cv::Mat& gray, int width,
   return done;
 }
 
+// Whether the pattern's column c along the side is black in the border and white for `cells`
+// cells behind it.
+bool whiteBehind(const PatternSide& side, const TagCells& black, int c, int cells) {
+  for (int k = 0; k <= cells; ++k) {
+    const Eigen::Vector2d cell = side.start + (c + 0.5) * side.along + (k + 0.5) * side.inward;
+    const bool dark =
+        black(static_cast<int>(std::floor(cell.y())), static_cast<int>(std::floor(cell.x())));
+    if (dark != (k == 0)) return false;
+  }
+  return true;
+}
+
+// The white and black levels of windows across edges: from their outer halves.
+bool windowLevels(const std::vector<Window>& windows, double* white, double* dark) {
+  double white_sum = 0.0, white_weight = 0.0, black_sum = 0.0, black_weight = 0.0;
+  for (const auto& window : windows) {
+    for (const auto& p : window.pixels) {
+      if (p.t <= -0.5 * window.reach) white_sum += p.weight * p.value, white_weight += p.weight;
+      if (p.t >= 0.5 * window.reach) black_sum += p.weight * p.value, black_weight += p.weight;
+    }
+  }
+  if (white_weight <= 0.0 || black_weight <= 0.0) return false;
+  *white = white_sum / white_weight;
+  *dark = black_sum / black_weight;
+  return true;
+}
+
 }  // namespace
+
+void measureEdgeShift(const cv::Mat& gray, const TagObservation& tag, int width,
+                      const TagCells& black, const CornerRefinementOptions& options,
+                      EdgeShift* shift) {
+  if (gray.empty() || gray.type() != CV_8UC1 || width < 4) return;
+  const auto& c = tag.corners_px;
+  const TagHomography H(std::array<Eigen::Vector2d, 4>{c[3], c[2], c[1], c[0]}, width);
+  if (!H.valid()) return;
+  const Eigen::Vector2d centre = H(0.5 * width, 0.5 * width);
+  for (const PatternSide& side : patternSides(width)) {
+    const Eigen::Vector2d a = H(side.start), b = H(side.start + width * side.along);
+    Eigen::Vector2d n(-(b - a).normalized().y(), (b - a).normalized().x());
+    if (n.dot(centre - 0.5 * (a + b)) < 0.0) n = -n;  // inward
+    std::vector<Window> outer, inner;
+    for (int j = 1; j < width - 1; ++j) {
+      if (!whiteBehind(side, black, j, 2) || !whiteBehind(side, black, j - 1, 1) ||
+          !whiteBehind(side, black, j + 1, 1)) {
+        continue;
+      }
+      const Eigen::Vector2d mid = side.start + (j + 0.5) * side.along;
+      const double cell_px = (H(mid + side.inward) - H(mid)).dot(n);
+      if (!(cell_px >= options.min_cell_px)) continue;
+      Window o, i;
+      o.reach = i.reach = std::min(kMaxWindowPx, 0.5 * cell_px);
+      const Eigen::Vector2d across = (H(mid + side.inward) - H(mid)).normalized();
+      const Eigen::Vector2d p0 = side.start + (j + 0.25) * side.along;
+      const Eigen::Vector2d p1 = side.start + (j + 0.75) * side.along;
+      collectWindow(gray, H(p0), H(p1), n, across, o.reach, &o.pixels);
+      collectWindow(gray, H(p0 + side.inward), H(p1 + side.inward), -n, across, i.reach, &i.pixels);
+      if (o.pixels.size() < 4 || i.pixels.size() < 4) continue;
+      outer.push_back(std::move(o));
+      inner.push_back(std::move(i));
+    }
+    double white_o, dark_o, white_i, dark_i;
+    if (outer.empty() || !windowLevels(outer, &white_o, &dark_o) ||
+        !windowLevels(inner, &white_i, &dark_i) ||
+        std::min(white_o - dark_o, white_i - dark_i) < options.min_contrast) {
+      continue;
+    }
+    for (std::size_t k = 0; k < outer.size(); ++k) {
+      const auto eo = edgeOffset(outer[k].pixels, white_o, dark_o, outer[k].reach, n);
+      const auto ei = edgeOffset(inner[k].pixels, white_i, dark_i, inner[k].reach, -n);
+      if (!eo || !ei) continue;
+      // The stripe's outer edge from its centre, along n from the refined side: (eo - ei) / 2.
+      shift->sum += -0.5 * (*eo - *ei) * width / (width - 1.0);
+      ++shift->count;
+    }
+  }
+}
+
+void moveTagSides(TagObservation* tag, double px) {
+  auto& c = tag->corners_px;
+  const Eigen::Vector2d centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  // Side k from corner k to k + 1, as a point and an outward normal.
+  std::array<Eigen::Vector2d, 4> point, normal;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d d = (c[(k + 1) % 4] - c[k]).normalized();
+    normal[k] = Eigen::Vector2d(-d.y(), d.x());
+    if (normal[k].dot(c[k] - centre) < 0.0) normal[k] = -normal[k];
+    point[k] = c[k] + px * normal[k];
+  }
+  std::array<Eigen::Vector2d, 4> moved;
+  for (int k = 0; k < 4; ++k) {
+    // Corner k on sides k - 1 and k: n . x = n . point for both.
+    const int p = (k + 3) % 4;
+    Eigen::Matrix2d A;
+    A << normal[p].transpose(), normal[k].transpose();
+    const Eigen::Vector2d rhs(normal[p].dot(point[p]), normal[k].dot(point[k]));
+    if (std::abs(A.determinant()) < 1e-9) return;
+    moved[k] = A.lu().solve(rhs);
+  }
+  for (int k = 0; k < 4; ++k) c[k] = moved[k];
+}
 
 bool refineTagCorners(const cv::Mat& gray, TagObservation* tag, int width, const TagCells& black,
                       const CornerRefinementOptions& options) {
