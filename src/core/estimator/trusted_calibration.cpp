@@ -17,13 +17,14 @@ int tangentSize(const TrustedCalibration::Block& b) {
   return b.manifold != nullptr ? b.manifold->TangentSize() : b.ambient;
 }
 
-// The tangent difference Minus(x, x0) of a block's values x from x0 (its values in a snapshot).
 // A block's parts (TrustedCalibration::inflation): first element and size in its tangent.
 std::vector<std::pair<int, int>> partsOf(int tangent) {
   if (tangent == 6) return {{0, 3}, {3, 3}};
   if (tangent == 8) return {{0, 4}, {4, 4}};
   return {{0, tangent}};
 }
+
+// The tangent difference Minus(x, x0) of a block's values x from x0 (its values in a snapshot).
 
 Eigen::VectorXd minus(const TrustedCalibration::Block& b, const double* x, const double* x0) {
   Eigen::VectorXd d(tangentSize(b));
@@ -291,15 +292,14 @@ std::vector<TrustedCalibration::Innovation> TrustedCalibration::innovations(cons
       const double median = n * std::pow(1.0 - 2.0 / (9.0 * n), 3);
       i.largest = w.maxCoeff();
       i.ratio = w.squaredNorm() / median;
-      i.variance = w.squaredNorm() / n;
       for (const auto& [first, size] : partsOf(static_cast<int>(d.size()))) {
         const Eigen::MatrixXd Sp = S.block(first, first, size, size);
         const Eigen::VectorXd dp = d.segment(first, size);
         i.part_variance.push_back(dp.dot(Sp.ldlt().solve(dp)) / size);
       }
     } else {
-      i.largest = i.ratio = i.variance = std::numeric_limits<double>::infinity();
-      i.part_variance.assign(partsOf(static_cast<int>(d.size())).size(), i.variance);
+      i.largest = i.ratio = std::numeric_limits<double>::infinity();
+      i.part_variance.assign(partsOf(static_cast<int>(d.size())).size(), i.ratio);
     }
     out.push_back(std::move(i));
   }

@@ -194,10 +194,9 @@ class TrustedCalibration {
     bool intrinsic = false;
     std::string name;
     const double* x = nullptr;
-    double largest = 0.0;   // its largest component (absolute)
-    double ratio = 0.0;     // its chi-square over the chi-square distribution's median
-    double variance = 0.0;  // its chi-square over the distribution's mean (its dimension)
-    // The same per part (partsOf): each part's step whitened by its own marginal.
+    double largest = 0.0;  // its largest component (absolute)
+    double ratio = 0.0;    // its chi-square over the chi-square distribution's median
+    // Per part (partsOf), its step whitened by its own marginal: chi-square over dimension.
     std::vector<double> part_variance;
   };
   static std::vector<Innovation> innovations(const Snapshot& from, const Snapshot& to);
