@@ -164,3 +164,6 @@ target_include_directories(test_block_covariance PRIVATE ${PROJECT_SOURCE_DIR}/s
 add_test(NAME python_result_yaml
   COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/yaml/check_result_yaml.py
     $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)
+# mvis_offline --help: the usage on standard output, exit status 0.
+add_test(NAME offline_help
+  COMMAND /bin/bash -c "set -o pipefail; '$<TARGET_FILE:mvis_offline>' --help | grep -q '^usage: mvis_offline'")

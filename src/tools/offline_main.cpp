@@ -35,9 +35,9 @@
 
 namespace {
 
-int usage(const char* message) {
-  std::fprintf(stderr,
-               "%s\nusage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
+void printUsage(std::FILE* out) {
+  std::fprintf(out,
+               "usage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
                "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
@@ -122,8 +122,12 @@ int usage(const char* message) {
                "                   errors correlated along a corner's track, over a second of\n"
                "                   frames or of inertial factors counted as they are) or\n"
                "                   model (the inverse information: every residual as its\n"
-               "                   noise model says)\n",
-               message);
+               "                   noise model says)\n");
+}
+
+int usage(const char* message) {
+  std::fprintf(stderr, "%s\n", message);
+  printUsage(stderr);
   return 2;
 }
 
@@ -211,6 +215,10 @@ int main(int argc, char** argv) {
       return true;
     };
     const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      printUsage(stdout);
+      return 0;
+    }
     if (arg == "--config") {
       if (!value(&config_dir)) return usage("--config needs a directory");
     } else if (arg == "--bag") {
