@@ -85,8 +85,8 @@ def scaling(bin_dir, root, out, duration):
     # Most updates only add a state (a solve every third cam0 frame), so the median is the cheap
     # kind; the estimator's total time over the run is what has to grow linearly in N.
     # "per aux IMU": (total - total at N = 0) / N; "each added": (total - the previous N's
-    # total) / (N - previous N), the cost of the IMUs added since the line above (issue 24 asks
-    # it flat within 20% from one to eight).
+    # total) / (N - previous N), the cost of the IMUs added since the line above (the target:
+    # flat within 20% from one to eight).
     print("%4s %12s %12s %10s %16s %18s %16s" % ("N", "median [ms]", "p99 [ms]", "real time",
                                               "estimator [s]", "per aux IMU [s]",
                                               "each added [s]"))

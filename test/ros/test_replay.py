@@ -151,7 +151,7 @@ class Replay(unittest.TestCase):
         nodelet measures it (from a reading's receipt to its odometry message, and the
         intervals between odometry messages against those between their readings' arrivals):
         before the IMU callback stopped waiting for the estimator, solves held odometry up by
-        up to 61 ms (issue 24). This node's own view (the two messages' arrivals here) is
+        up to 61 ms. This node's own view (the two messages' arrivals here) is
         printed; a Python subscriber to /tf at 500 Hz is too slow to time single milliseconds,
         so only its median is asserted, and within the nodelet's bound (10 IMU periods): on this
         shared machine it was 10.4 ms once in a clean-clone run (0.13 ms alone right after)."""

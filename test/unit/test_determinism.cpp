@@ -92,7 +92,7 @@ TEST(Determinism, SameResultWhateverTheAllocation) {
   EXPECT_EQ(differing, 0);
 }
 
-// A fault made the answer depend on the allocation (issue 21: a 0.3 s hole in imu0 left the
+// A fault made the answer depend on the allocation (a 0.3 s hole in imu0 left the
 // cameras 4.9 mm off with relative paths and 0.1 mm with absolute ones). With faults that restart
 // the window from the trusted calibration (a drifting camera clock, a hole) and garble messages,
 // two runs with the heap disturbed differently in between give the same bytes. (Before the

@@ -1,4 +1,4 @@
-// Degenerate motion with every calibration quantity free (issue 22 item 2, report Sec. 5 and
+// Degenerate motion with every calibration quantity free (report Sec. 5 and
 // Tables 2-3): what the motion cannot tell is held and said, and what it can stays inside its 3
 // sigma, the cameras' intrinsics estimated too.
 #include <gtest/gtest.h>

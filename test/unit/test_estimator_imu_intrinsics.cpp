@@ -249,7 +249,7 @@ TEST(Estimator, YawOnlyMotionLeavesTableThreeIntrinsicsAtTheirPrior) {
   // largest error/sigma measured 1.3-2.6 / 1.9-2.9 / 0.9-4.3 over one session's builds and
   // process histories (other heap addresses, so another parameter order in Ceres), 2.7 / 3.5 /
   // 5.8 with the loss per corner, and one build reached 8-18 after another test in the same
-  // process. Since the gyroscope's Tg is estimated too (issue 22): 0.94 / 0.93 / 0.89; before
+  // process. Since the gyroscope's Tg is estimated too: 0.94 / 0.93 / 0.89; before
   // its specific force's noise was taken out of its readings' moments, its Tg's first column
   // was not found unobservable and ended 46 sigma off.
   allErrors(run, estimate, "yaw only");
@@ -309,7 +309,7 @@ TEST(Estimator, YawOnlyMotionHoldsWhatAnAuxiliaryRotationTradesWith) {
   EXPECT_EQ(std::find(imu1.begin(), imu1.end(), "dw22"), imu1.end());  // the scale about y
 }
 
-// A cheap MEMS gyroscope's gravity sensitivity (issue 22): the gyroscope imu2 with Table 4's
+// A cheap MEMS gyroscope's gravity sensitivity: the gyroscope imu2 with Table 4's
 // Tw and a Tg of up to 3e-4 rad/s per m/s^2, which its configuration does not know (zero).
 void withGyroscopeTg(Rig* rig) {
   withIntrinsics(rig);

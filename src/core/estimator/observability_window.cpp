@@ -1,4 +1,4 @@
-// ObservabilityMonitor's joint check: degeneracy from the window's information (issue 22).
+// ObservabilityMonitor's joint check: degeneracy from the window's information.
 //
 // The per-quantity checks (observability_monitor.cpp) look at one calibrated quantity at a time
 // with the states known. Some motions leave a direction unobservable that no single quantity
