@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -100,7 +101,9 @@ BoardView renderBoard(const SE3& T_cam_board, const ViewOptions& options) {
   view.image.create(clean.size(), CV_8UC1);
   for (int r = 0; r < clean.rows; ++r) {
     for (int c = 0; c < clean.cols; ++c) {
-      const double v = clean.at<float>(r, c) + (options.noise_sigma > 0 ? noise(rng) : 0.0);
+      const double linear = std::max(0.0, static_cast<double>(clean.at<float>(r, c))) / 255.0;
+      const double v = 255.0 * std::pow(linear, 1.0 / options.gamma) +
+                       (options.noise_sigma > 0 ? noise(rng) : 0.0);
       view.image.at<std::uint8_t>(r, c) =
           static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
     }

@@ -39,6 +39,7 @@ struct ViewOptions {
   double blur_sigma = 0.0;   // [px]
   double noise_sigma = 2.0;  // [grey levels]
   double black = 40.0, white = 230.0;
+  double gamma = 1.0;  // texture renderer: response out = 255 (in / 255)^(1 / gamma)
   std::uint32_t seed = 1;
 };
 
