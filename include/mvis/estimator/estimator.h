@@ -51,6 +51,7 @@
 
 #include "mvis/common/lie.h"
 #include "mvis/common/status.h"
+#include "mvis/estimator/residual_statistics.h"
 #include "mvis/factors/aux_imu_model.h"
 #include "mvis/frontend/tag_observation.h"
 #include "mvis/inertial/imu_correction.h"
@@ -214,7 +215,7 @@ struct EstimatorOptions {
   // horizon tells less than this many times its prior (handheld motion: 2-45 for Da, ~500 for
   // Dw; constant components: ~0). 0 turns it off.
   double imu_intrinsics_observability_ratio = 1.0;
-  // Faults (README "Bad data"). A hole in the base IMU's readings longer than this, a jump of
+  // Faults (doc/bad_data.md). A hole in the base IMU's readings longer than this, a jump of
   // its clock back by more than 1 s (a bag restarted) or forward, and a failure found by the
   // checks below start the window over from the trusted calibration: the last one the checks
   // passed, with its covariance as prior (src/core/estimator/trusted_calibration.h), or the
@@ -297,7 +298,7 @@ struct EstimatorState {
 
 // What IMU-rate odometry starts from after an update (odometry_propagator.h).
 struct PropagationAnchor {
-  bool valid = false;  // false: no state to propagate (before the first, after a restart)
+  bool valid = false;    // false: no state to propagate (before the first, after a restart)
   EstimatorState state;  // the newest window state (base clock); its biases as reported
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // [m/s^2], world (board) frame
   // Raw base reading -> calibrated reading: the configured intrinsics, or the current estimate
@@ -313,8 +314,8 @@ struct SolveSummary {
   double solve_s = 0.0;  // Ceres time
   double total_s = 0.0;  // including marginalization and bookkeeping
   int states = 0;
-  int frames = 0;     // camera frames in the window
-  int corners = 0;    // corner observations in the window
+  int frames = 0;   // camera frames in the window
+  int corners = 0;  // corner observations in the window
   // Without a board: tags that are landmarks in the window, and of them those carried across
   // marginalizations (EstimatorOptions::carried_tags).
   int landmarks = 0, carried_landmarks = 0;
@@ -353,9 +354,9 @@ struct UnobservableCalibration {
 // A sensor's calibration found changed (EstimatorOptions::detect_changes), one entry per quantity
 // that moved.
 struct CalibrationChange {
-  TimeNs stamp_ns = 0;  // when it was declared (base clock)
-  TimeNs since_ns = 0;  // the start of the data that show it (base clock)
-  std::string sensor;   // cam1, ...
+  TimeNs stamp_ns = 0;   // when it was declared (base clock)
+  TimeNs since_ns = 0;   // the start of the data that show it (base clock)
+  std::string sensor;    // cam1, ...
   std::string quantity;  // "rotation", "translation", "time_offset"
   // The change: [deg] for a rotation (the angle), [mm] for a translation (the norm), [ms] for a
   // time offset (signed); and its size over its standard deviation (the Mahalanobis norm of the
@@ -371,6 +372,10 @@ struct EstimatorUpdate {
   // Covariance of [dtheta, dp] of the newest pose (right perturbation) when it was computed
   // with this update (every covariance_every solves), NaN otherwise.
   Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  // With it, the covariances of that state's velocity v_G [(m/s)^2, world (board) frame] and of
+  // its gyroscope bias [(rad/s)^2]; NaN otherwise.
+  Eigen::Matrix3d velocity_covariance = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d gyro_bias_covariance = Eigen::Matrix3d::Zero();
   bool calibration_covariance_updated = false;          // calibration() has new standard deviations
   Eigen::Vector3d gravity_G = Eigen::Vector3d::Zero();  // in the world (board) frame [m/s^2]
   SolveSummary solve;
@@ -453,14 +458,15 @@ struct EstimatorCounters {
   long aux_dropouts = 0;  // times an auxiliary sensor left the window (readings stopped)
   long aux_starts = 0;    // times an auxiliary sensor's states started in the window
   // Faults (EstimatorOptions::imu_max_gap_s and after).
-  long restarts = 0;            // the window started over from the trusted calibration
-  long failures = 0;            // failures found by the checks after a solve
-  long frames_rejected = 0;     // frames far from where the estimate puts them (frame_gate_sigma)
-  long corners_rejected = 0;    // single corners beyond frame_gate_sigma in frames kept
-  long inconsistencies = 0;     // intrinsics moved beyond what their covariance allows
+  long restarts = 0;          // the window started over from the trusted calibration
+  long failures = 0;          // failures found by the checks after a solve
+  long frames_rejected = 0;   // frames far from where the estimate puts them (frame_gate_sigma)
+  long corners_rejected = 0;  // single corners beyond frame_gate_sigma in frames kept
+  long inconsistencies = 0;   // intrinsics moved beyond what their covariance allows
   long held_intrinsics_misfits = 0;  // the data disagree with a held Tg (held_intrinsics_p)
   long stamps_implausible = 0;
-  long calibration_changes = 0;  // sensors found moved (EstimatorOptions::detect_changes)  // frames and aux readings stamped far from the base IMU's time
+  long calibration_changes = 0;  // sensors found moved (EstimatorOptions::detect_changes)  //
+                                 // frames and aux readings stamped far from the base IMU's time
   // covariances where a time offset's sigma was under 0.9 of Estimator::timeOffsetFloor()
   long time_offsets_under_floor = 0;
   // The degeneracy check of the window's information (window_observability_ratio): its runs and
@@ -522,6 +528,10 @@ class Estimator {
   std::string status() const;
   bool initialized() const;
   const EstimatorCounters& counters() const;
+  // Residual statistics per sensor (residual_statistics.h): every state that left the window,
+  // at its last solve, and the window's states at the current estimate; after solveBatch, every
+  // state of the batch.
+  ResidualStatistics residualStatistics() const;
   // Drops everything and starts over from the trusted calibration (the latest that the failure
   // checks passed, with its covariance; EstimatorOptions::imu_max_gap_s).
   void reset();

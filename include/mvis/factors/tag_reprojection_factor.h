@@ -193,6 +193,9 @@ class TagReprojectionFactor final : public ceres::CostFunction {
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
+  // Every corner's whitened residual (2 per corner, the per-corner loss applied), compressed or
+  // not; `residuals` holds 2 x corners().size().
+  bool cornerResiduals(double const* const* parameters, double* residuals) const;
 
   const std::vector<CornerObservation>& corners() const { return corners_; }
   // The index of the landmark block among the parameters, -1 without (useLandmarkBlock).
@@ -203,8 +206,10 @@ class TagReprojectionFactor final : public ceres::CostFunction {
                         std::vector<CornerObservation> corners, double pixel_sigma,
                         double dt_nominal, double interval, const Eigen::Vector3d& gyro_k);
   // Evaluate with Dim jet directions: 25 (kStageDim), or 34 with the anchor's deltas.
+  // per_corner: every corner's residual even when compressed (no Jacobians then).
   template <int Dim>
-  bool evaluate(double const* const* parameters, double* residuals, double** jacobians) const;
+  bool evaluate(double const* const* parameters, double* residuals, double** jacobians,
+                bool per_corner = false) const;
   // The per-corner loss: a whitened residual r beyond the threshold becomes g u and its
   // Jacobian rows M J (see the header); false (nothing changed) within it.
   bool cornerLoss(Eigen::Vector2d* r, Eigen::Matrix2d* M) const;

@@ -373,6 +373,7 @@ void Estimator::Impl::marginalizeOldest(bool rows) {
     if (!landmarks.carried(block)) own.insert(block);
   }
   window.moveToOldest(own);
+  addResiduals(oldest, &left_residuals);  // at its last solve, for the report
   aux.leaving(oldest, &leaving);
   inertial_fit.leaving(oldest, trusted.fromCovariance());
   const std::string misfit =
@@ -411,11 +412,16 @@ void Estimator::Impl::publish(const SolveSummary& summary, Clock::time_point sta
                    declared_changes.end());
   changes_published = declared_changes.size();
   u.pose_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
+  u.velocity_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
+  u.gyro_bias_covariance.setConstant(std::numeric_limits<double>::quiet_NaN());
   if (!options.batch && options.covariance_every > 0 &&
       solves_since_covariance >= options.covariance_every) {
     Eigen::Matrix<double, 6, 6> pose_cov;
-    if (covariance(&pose_cov).ok()) {
+    Eigen::Matrix<double, 9, 9> speed_bias_cov;
+    if (covariance(&pose_cov, nullptr, &speed_bias_cov).ok()) {
       u.pose_covariance = pose_cov;
+      u.velocity_covariance = speed_bias_cov.topLeftCorner<3, 3>();
+      u.gyro_bias_covariance = speed_bias_cov.block<3, 3>(3, 3);
       u.calibration_covariance_updated = true;
     }
   }

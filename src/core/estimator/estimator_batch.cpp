@@ -38,7 +38,6 @@ constexpr TimeNs kPoseCovarianceSpacingNs = kNsPerSecond;
 // cameras either way: doc/results.md).
 constexpr TimeNs kClusterSpanNs = kNsPerSecond;
 // Worst states named per sensor in a batch's residual summary.
-constexpr std::size_t kWorstStates = 5;
 
 class ProgressCallback : public ceres::IterationCallback {
  public:
@@ -54,7 +53,8 @@ class ProgressCallback : public ceres::IterationCallback {
 
 }  // namespace
 
-Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Clustered* clustered) {
+Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Clustered* clustered,
+                                   Eigen::Matrix<double, 9, 9>* speed_bias_cov) {
   solves_since_covariance = 0;
   if (window.empty()) return Status::Error("no state yet");
   ceres::Problem* problem = window.problem();
@@ -73,6 +73,8 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
     }
   } restore{consider ? &monitor : nullptr, problem};
   blocks.emplace_back(newest, newest);
+  double* speed_bias = window.newest().speed_bias;
+  if (speed_bias_cov != nullptr) blocks.emplace_back(speed_bias, speed_bias);
   calibration.covarianceBlocks(*problem, &blocks);
   intrinsics.covarianceBlocks(*problem, &blocks);
   if (!cov.compute(blocks, problem, true, clustered ? &clustered->clusters : nullptr)) {
@@ -121,6 +123,11 @@ Status Estimator::Impl::covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Cluste
   if (pose_cov != nullptr) {
     cov.showModel(true);  // a pose's covariance is the model's (EstimatorOptions)
     cov.GetCovarianceBlockInTangentSpace(newest, newest, pose_cov->data());
+    if (speed_bias_cov != nullptr) {
+      Eigen::Matrix<double, 9, 9, Eigen::RowMajor> c;
+      cov.GetCovarianceBlockInTangentSpace(speed_bias, speed_bias, c.data());
+      *speed_bias_cov = c;
+    }
     cov.showModel(false);
     if (monitor.holding()) {  // always while considering
       std::vector<Eigen::Matrix<double, 6, 6>> with_held;
@@ -332,94 +339,6 @@ estimator_internal::RowClusters Estimator::Impl::rowClusters() const {
     ++state_index;
   }
   return out;
-}
-
-void Estimator::Impl::residualSummary(BatchSummary* summary) {
-  const std::size_t cameras = rig.cameras.size(), inertial = rig.inertial.size();
-  std::vector<SensorResiduals> out(cameras + inertial);
-  // Per sensor and window state: chi-square and residuals.
-  std::vector<std::map<TimeNs, std::pair<double, long>>> by_state(out.size());
-  for (std::size_t c = 0; c < cameras; ++c) {
-    out[c].sensor = rig.cameras[c].name;
-    out[c].kind = "camera";
-  }
-  for (std::size_t i = 0; i < inertial; ++i) {
-    out[cameras + i].sensor = rig.inertial[i].name;
-    out[cameras + i].kind = i == 0                                             ? "base IMU"
-                            : rig.inertial[i].type == InertialType::kGyroscope ? "gyroscope"
-                                                                               : "auxiliary IMU";
-  }
-  ceres::Problem* problem = window.problem();
-  std::vector<double> residuals;
-  for (const auto& state : window.states()) {
-    for (const auto& r : state->residuals) {
-      std::size_t k = out.size();  // none: a prior
-      if (r.inertial >= 0) {
-        k = cameras + static_cast<std::size_t>(r.inertial);
-      } else {
-        for (std::size_t c = 0; c < cameras; ++c) {
-          if (std::find(r.blocks.begin(), r.blocks.end(), calibration.camera(c).extrinsic) !=
-              r.blocks.end()) {
-            k = c;
-          }
-        }
-      }
-      if (k == out.size()) continue;
-      residuals.assign(static_cast<std::size_t>(r.cost->num_residuals()), 0.0);
-      double cost = 0.0;
-      if (!problem->EvaluateResidualBlock(r.id, false, &cost, residuals.data(), nullptr)) continue;
-      double chi2 = 0.0;
-      for (double e : residuals) chi2 += e * e;
-      out[k].factors += 1;
-      out[k].residuals += static_cast<long>(residuals.size());
-      out[k].chi_square += chi2;
-      auto& at = by_state[k][state->t];
-      at.first += chi2;
-      at.second += static_cast<long>(residuals.size());
-      if (k >= cameras) {
-        summary->inertial.push_back(
-            {state->t, static_cast<int>(k - cameras), static_cast<int>(residuals.size()), chi2});
-        continue;
-      }
-      const auto* tag = dynamic_cast<const TagReprojectionFactor*>(r.cost);
-      if (tag == nullptr || 2 * tag->corners().size() != residuals.size()) continue;
-      const bool landmark = !rig.target;
-      // In a batch every frame's factor has the per-corner loss when it is configured.
-      const bool corner_loss =
-          options.robust_loss == RobustLoss::kCorner && options.huber_sigma > 0.0;
-      for (std::size_t i = 0; i < tag->corners().size(); ++i) {
-        const CornerObservation& o = tag->corners()[i];
-        CornerResidual c;
-        c.stamp_ns = state->t;
-        c.camera = static_cast<int>(k);
-        if (!landmark) c.p_G = o.p_G;
-        c.corner = o.landmark;
-        c.uv = o.uv;
-        Eigen::Vector2d e(residuals[2 * i], residuals[2 * i + 1]);
-        // The per-corner loss maps a whitened norm n > h to g = sqrt(2 h n - h^2): undone.
-        const double h = options.huber_sigma, g = e.norm();
-        if (corner_loss && g > h) e *= (g * g + h * h) / (2.0 * h) / g;
-        c.residual = options.pixel_sigma_px * e;
-        summary->corners.push_back(c);
-      }
-    }
-  }
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    SensorResiduals& s = out[k];
-    if (s.residuals == 0) continue;
-    s.rms = std::sqrt(s.chi_square / static_cast<double>(s.residuals));
-    if (k < cameras) s.rms *= options.pixel_sigma_px;
-    for (const auto& [t, v] : by_state[k]) {
-      s.worst.emplace_back(t, v.first / static_cast<double>(v.second));
-    }
-    std::stable_sort(s.worst.begin(), s.worst.end(),
-                     [](const auto& a, const auto& b) { return a.second > b.second; });
-    if (s.worst.size() > kWorstStates) s.worst.resize(kWorstStates);
-  }
-  out.erase(std::remove_if(out.begin(), out.end(),
-                           [](const SensorResiduals& s) { return s.residuals == 0; }),
-            out.end());
-  summary->residuals = std::move(out);
 }
 
 StatusOr<BatchSummary> Estimator::Impl::solveBatch(

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -22,6 +23,7 @@
 #include "landmarks.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/odometry_propagator.h"
+#include "mvis/estimator/residual_statistics.h"
 #include "observability_monitor.h"
 #include "startup.h"
 #include "trusted_calibration.h"
@@ -29,6 +31,8 @@
 #include "window_prior.h"
 
 namespace mvis {
+
+class TagReprojectionFactor;
 
 struct Estimator::Impl {
   using Clock = std::chrono::steady_clock;
@@ -167,7 +171,8 @@ struct Estimator::Impl {
   };
   // Calibration standard deviations, and the newest pose's covariance; with `clustered` the
   // clustered ones.
-  Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Clustered* clustered = nullptr);
+  Status covariance(Eigen::Matrix<double, 6, 6>* pose_cov, Clustered* clustered = nullptr,
+                    Eigen::Matrix<double, 9, 9>* speed_bias_cov = nullptr);
   // The batch's corner and inertial rows, in groups (the corners, each inertial sensor) and
   // clustered two ways (estimator_batch.cpp, block_covariance.h).
   estimator_internal::RowClusters rowClusters() const;
@@ -204,9 +209,25 @@ struct Estimator::Impl {
   void applyStart();
   StatusOr<BatchSummary> solveBatch(int max_iterations,
                                     const std::function<void(int, double)>& progress);
+
+  // ---- residuals (estimator_residuals.cpp) -----------------------------------------------------
   // The whitened residuals per sensor at the current estimate, with every corner's and
   // inertial factor's into `out`.
   void residualSummary(BatchSummary* out);
+  // One window state's factors at the current estimate, per sensor k (cameras, then inertial
+  // sensors; rig order): the whitened residuals, and for a camera's tag factor the factor
+  // (its corners' errors: cornerErrors).
+  void visitResiduals(const State& state,
+                      const std::function<void(std::size_t k, const std::vector<double>& whitened,
+                                               const TagReprojectionFactor* tag)>& visit);
+  // A tag factor's whitened residuals as pixel errors (projected - detected), the per-corner
+  // loss undone.
+  std::vector<Eigen::Vector2d> cornerErrors(const std::vector<double>& whitened) const;
+  // Empty statistics naming the rig's sensors.
+  ResidualStatistics emptyResidualStatistics() const;
+  void addResiduals(const State& state, ResidualStatistics* stats);
+  // The residuals of the states that left the window (marginalizeOldest).
+  ResidualStatistics left_residuals;
 
   // ---- initialization (estimator_startup.cpp) ----------------------------------------------
   // The camera's board pose with its current intrinsics (without a board: on its pose tag).

@@ -166,6 +166,14 @@ bool TagReprojectionFactor::Evaluate(double const* const* parameters, double* re
              : evaluate<kStageDim>(parameters, residuals, jacobians);
 }
 
+bool TagReprojectionFactor::cornerResiduals(double const* const* parameters,
+                                            double* residuals) const {
+  return interpolation_ == Interpolation::kImuPropagated &&
+                 (anchor_.with_intrinsics || noise_block_ >= 0)
+             ? evaluate<kStageDim + 9>(parameters, residuals, nullptr, true)
+             : evaluate<kStageDim>(parameters, residuals, nullptr, true);
+}
+
 bool TagReprojectionFactor::cornerLoss(Eigen::Vector2d* r, Eigen::Matrix2d* M) const {
   const double c = corner_loss_;
   const double n = r->norm();
@@ -357,7 +365,7 @@ void TagReprojectionFactor::cameraPose(double const* const* parameters,
 
 template <int Dim>
 bool TagReprojectionFactor::evaluate(double const* const* parameters, double* residuals,
-                                     double** jacobians) const {
+                                     double** jacobians, bool per_corner) const {
   // Stage 1: the camera pose, p_C = R_C_G p_G + t_C_G, with derivatives in the directions
   // listed at kStageDim.
   const int n_blocks = static_cast<int>(layout_.size());
@@ -465,7 +473,7 @@ bool TagReprojectionFactor::evaluate(double const* const* parameters, double* re
   }
   // Compressed: the corners' rows [J_6 (J_k) r] (whitened, after the loss), for the normal
   // equations at the end.
-  const bool compressed = compressed_columns_ > 0;
+  const bool compressed = compressed_columns_ > 0 && !per_corner;
   const int C = compressed_columns_;
   if (compressed && jacobians != nullptr && C == kPoseColumns && J_intrinsics != nullptr) {
     return false;  // compressed without the intrinsics: their Jacobian is not available
