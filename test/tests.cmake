@@ -60,6 +60,9 @@ target_compile_definitions(test_fuzz_messages PRIVATE MVIS_SOURCE_DIR="${PROJECT
 catkin_add_gtest(test_offline_inputs test/ros/test_offline_inputs.cpp)
 target_link_libraries(test_offline_inputs mvis_ros gtest_main)
 target_compile_definitions(test_offline_inputs PRIVATE MVIS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+catkin_add_gtest(test_nodelet_options test/ros/test_nodelet_options.cpp)
+target_link_libraries(test_nodelet_options mvis_ros gtest_main)
+target_compile_definitions(test_nodelet_options PRIVATE MVIS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 catkin_add_gtest(test_real_euroc test/ros/test_real_euroc.cpp)
 target_link_libraries(test_real_euroc mvis_ros gtest_main)
 target_compile_definitions(test_real_euroc PRIVATE MVIS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
@@ -164,6 +167,13 @@ target_include_directories(test_block_covariance PRIVATE ${PROJECT_SOURCE_DIR}/s
 add_test(NAME python_result_yaml
   COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/yaml/check_result_yaml.py
     $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)
+# report.md against an independent reading of the same result directory, and --params in effect.
+add_test(NAME report_md
+  COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/yaml/check_report.py
+    $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)
+# mvis_offline --params with an unknown key: refused at start (exit 2), naming the file and key.
+add_test(NAME offline_params_refused
+  COMMAND ${PROJECT_SOURCE_DIR}/test/tools/offline_params_refused.sh $<TARGET_FILE:mvis_offline>)
 # mvis_offline --help: the usage on standard output, exit status 0.
 add_test(NAME offline_help
   COMMAND /bin/bash -c "set -o pipefail; '$<TARGET_FILE:mvis_offline>' --help | grep '^usage: mvis_offline'")

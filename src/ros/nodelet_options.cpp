@@ -1,54 +1,169 @@
 #include "mvis/ros/nodelet_options.h"
 
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <sstream>
+#include <type_traits>
+
 namespace mvis {
+
+namespace {
+
+// Every key of config/mvis.yaml and its field: the one list both readers walk.
+template <class Read>
+void readKeys(NodeletOptions& o, Read&& read) {
+  read("config_dir", o.config_dir);
+  read("imu_chain", o.imu_chain);
+  read("cam_chain", o.cam_chain);
+  read("target", o.target);
+  read("world_frame", o.world_frame);
+  read("body_frame", o.body_frame);
+  read("publish_tf", o.publish_tf);
+  read("frame_prefix", o.frame_prefix);
+  read("camera_input", o.camera_input);
+  read("diagnostics_period", o.diagnostics_period_s);
+  read("sensor_timeout", o.sensor_timeout_s);
+  read("tag_decimate", o.tag_decimate);
+  read("tag_refine_corners", o.tag_refine_corners);
+  read("tag_max_hamming", o.tag_max_hamming);
+  read("tag_threads", o.tag_threads);
+  read("window_size", o.window_size);
+  read("carried_tags", o.carried_tags);
+  read("window_own_tags", o.window_own_tags);
+  read("pixel_sigma", o.pixel_sigma);
+  read("huber_sigma", o.huber_sigma);
+  read("robust_loss", o.robust_loss);
+  read("propagation_noise", o.propagation_noise);
+  read("min_tags", o.min_tags);
+  read("imu_max_gap", o.imu_max_gap_s);
+  read("failure_step_sigma", o.failure_step_sigma);
+  read("frame_gate_sigma", o.frame_gate_sigma);
+  read("detect_changes", o.detect_changes);
+  read("held_intrinsics_p", o.held_intrinsics_p);
+  read("estimate_extrinsics", o.estimate_extrinsics);
+  read("estimate_time_offsets", o.estimate_time_offsets);
+  read("estimate_aux_extrinsics", o.estimate_aux_extrinsics);
+  read("estimate_aux_time_offsets", o.estimate_aux_time_offsets);
+  read("estimate_intrinsics", o.estimate_intrinsics);
+  read("estimate_imu_intrinsics", o.estimate_imu_intrinsics);
+  read("estimate_gravity_sensitivity", o.estimate_gravity_sensitivity);
+  read("hold", o.hold);
+  read("aux_imu_model", o.aux_imu_model);
+  read("max_iterations", o.max_iterations);
+  read("solve_every", o.solve_every);
+  read("observability_ratio", o.observability_ratio);
+  read("observability_horizon", o.observability_horizon_s);
+  read("imu_intrinsics_observability_ratio", o.imu_intrinsics_observability_ratio);
+  read("solver_threads", o.solver_threads);
+  read("result_dir", o.result_dir);
+  read("save_on_shutdown", o.save_on_shutdown);
+}
+
+}  // namespace
 
 NodeletOptions NodeletOptions::fromParameters(const ros::NodeHandle& nh) {
   NodeletOptions o;
-  nh.param("config_dir", o.config_dir, o.config_dir);
-  nh.param("imu_chain", o.imu_chain, o.imu_chain);
-  nh.param("cam_chain", o.cam_chain, o.cam_chain);
-  nh.param("target", o.target, o.target);
-  nh.param("world_frame", o.world_frame, o.world_frame);
-  nh.param("frame_prefix", o.frame_prefix, o.frame_prefix);
-  nh.param("camera_input", o.camera_input, o.camera_input);
-  nh.param("diagnostics_period", o.diagnostics_period_s, o.diagnostics_period_s);
-  nh.param("sensor_timeout", o.sensor_timeout_s, o.sensor_timeout_s);
-  nh.param("tag_decimate", o.tag_decimate, o.tag_decimate);
-  nh.param("tag_refine_corners", o.tag_refine_corners, o.tag_refine_corners);
-  nh.param("tag_max_hamming", o.tag_max_hamming, o.tag_max_hamming);
-  nh.param("tag_threads", o.tag_threads, o.tag_threads);
-  nh.param("window_size", o.window_size, o.window_size);
-  nh.param("carried_tags", o.carried_tags, o.carried_tags);
-  nh.param("window_own_tags", o.window_own_tags, o.window_own_tags);
-  nh.param("pixel_sigma", o.pixel_sigma, o.pixel_sigma);
-  nh.param("huber_sigma", o.huber_sigma, o.huber_sigma);
-  nh.param("robust_loss", o.robust_loss, o.robust_loss);
-  nh.param("propagation_noise", o.propagation_noise, o.propagation_noise);
-  nh.param("min_tags", o.min_tags, o.min_tags);
-  nh.param("imu_max_gap", o.imu_max_gap_s, o.imu_max_gap_s);
-  nh.param("failure_step_sigma", o.failure_step_sigma, o.failure_step_sigma);
-  nh.param("frame_gate_sigma", o.frame_gate_sigma, o.frame_gate_sigma);
-  nh.param("detect_changes", o.detect_changes, o.detect_changes);
-  nh.param("held_intrinsics_p", o.held_intrinsics_p, o.held_intrinsics_p);
-  nh.param("estimate_extrinsics", o.estimate_extrinsics, o.estimate_extrinsics);
-  nh.param("estimate_time_offsets", o.estimate_time_offsets, o.estimate_time_offsets);
-  nh.param("estimate_aux_extrinsics", o.estimate_aux_extrinsics, o.estimate_aux_extrinsics);
-  nh.param("estimate_aux_time_offsets", o.estimate_aux_time_offsets, o.estimate_aux_time_offsets);
-  nh.param("estimate_intrinsics", o.estimate_intrinsics, o.estimate_intrinsics);
-  nh.param("estimate_imu_intrinsics", o.estimate_imu_intrinsics, o.estimate_imu_intrinsics);
-  nh.param("estimate_gravity_sensitivity", o.estimate_gravity_sensitivity,
-           o.estimate_gravity_sensitivity);
-  nh.param("hold", o.hold, o.hold);
-  nh.param("aux_imu_model", o.aux_imu_model, o.aux_imu_model);
-  nh.param("max_iterations", o.max_iterations, o.max_iterations);
-  nh.param("solve_every", o.solve_every, o.solve_every);
-  nh.param("observability_ratio", o.observability_ratio, o.observability_ratio);
-  nh.param("observability_horizon", o.observability_horizon_s, o.observability_horizon_s);
-  nh.param("imu_intrinsics_observability_ratio", o.imu_intrinsics_observability_ratio,
-           o.imu_intrinsics_observability_ratio);
-  nh.param("solver_threads", o.solver_threads, o.solver_threads);
-  nh.param("result_dir", o.result_dir, o.result_dir);
+  readKeys(o, [&nh](const char* key, auto& value) { nh.param(key, value, value); });
   return o;
+}
+
+StatusOr<NodeletOptions> NodeletOptions::fromYamlFile(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    return Status::Error(path + ": cannot read it as YAML (" + e.what() + ")");
+  }
+  NodeletOptions o;
+  if (root.IsNull()) return o;  // an empty file: the defaults
+  if (!root.IsMap()) return Status::Error(path + ": expected a map of parameter: value");
+  std::set<std::string> known;
+  readKeys(o, [&known](const char* key, auto&) { known.insert(key); });
+  for (const auto& entry : root) {
+    const std::string key = entry.first.as<std::string>();
+    if (known.count(key) == 0) {
+      return Status::Error(path + ": unknown parameter '" + key +
+                           "' (config/mvis.yaml lists every parameter)");
+    }
+  }
+  std::string problem;
+  readKeys(o, [&](const char* key, auto& value) {
+    const YAML::Node node = root[key];
+    if (!node || !problem.empty()) return;
+    try {
+      value = node.as<std::decay_t<decltype(value)>>();
+    } catch (const YAML::Exception&) {
+      problem = path + ": parameter '" + std::string(key) + "' has a value of the wrong type (" +
+                YAML::Dump(node) + ")";
+    }
+  });
+  if (!problem.empty()) return Status::Error(problem);
+  return o;
+}
+
+std::vector<std::pair<std::string, std::string>> NodeletOptions::values() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  NodeletOptions copy = *this;  // readKeys walks a mutable one
+  readKeys(copy, [&out](const char* key, auto& value) {
+    using T = std::decay_t<decltype(value)>;
+    std::ostringstream text;
+    if constexpr (std::is_same_v<T, bool>) {
+      text << (value ? "true" : "false");
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      text << "[";
+      for (std::size_t i = 0; i < value.size(); ++i) text << (i ? ", " : "") << value[i];
+      text << "]";
+    } else {
+      text << value;
+    }
+    out.emplace_back(key, text.str());
+  });
+  return out;
+}
+
+EstimatorOptions NodeletOptions::estimatorOptions() const {
+  EstimatorOptions eo;
+  eo.window_size = window_size;
+  eo.carried_tags = carried_tags;
+  eo.window_own_tags = window_own_tags;
+  eo.pixel_sigma_px = pixel_sigma;
+  eo.huber_sigma = huber_sigma;
+  eo.robust_loss = robust_loss == "frame" ? RobustLoss::kFrame : RobustLoss::kCorner;
+  eo.propagation_noise = propagation_noise;
+  eo.min_tags = min_tags;
+  eo.imu_max_gap_s = imu_max_gap_s;
+  eo.failure_step_sigma = failure_step_sigma;
+  eo.frame_gate_sigma = frame_gate_sigma;
+  eo.detect_changes = detect_changes;
+  eo.held_intrinsics_p = held_intrinsics_p;
+  eo.estimate_extrinsics = estimate_extrinsics;
+  eo.estimate_time_offsets = estimate_time_offsets;
+  eo.estimate_aux_extrinsics = estimate_aux_extrinsics;
+  eo.estimate_aux_time_offsets = estimate_aux_time_offsets;
+  eo.estimate_intrinsics = estimate_intrinsics;
+  eo.estimate_imu_intrinsics = estimate_imu_intrinsics;
+  eo.estimate_gravity_sensitivity = estimate_gravity_sensitivity;
+  eo.hold = hold;
+  eo.aux_imu_model =
+      aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity : AuxImuModel::kVelocityState;
+  eo.max_iterations = max_iterations;
+  eo.solve_every = solve_every;
+  eo.observability_ratio = observability_ratio;
+  eo.imu_intrinsics_observability_ratio = imu_intrinsics_observability_ratio;
+  eo.observability_horizon_s = observability_horizon_s;
+  eo.threads = solver_threads;
+  return eo;
+}
+
+TagFrontendOptions NodeletOptions::frontendOptions() const {
+  TagFrontendOptions fo;
+  fo.detector.decimate = tag_decimate;
+  fo.detector.refine_corners = tag_refine_corners;
+  fo.detector.max_hamming = tag_max_hamming;
+  fo.detector.threads = tag_threads;
+  fo.checks.max_hamming = tag_max_hamming;
+  return fo;
 }
 
 std::string NodeletOptions::validate() const {

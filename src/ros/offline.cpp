@@ -292,6 +292,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
       }
     }
   }
+  result.residuals = estimator->residualStatistics();
   result.counters = estimator->counters();
   result.sigma_inflation = estimator->sigmaInflation();
   result.time_offset_floor = estimator->timeOffsetFloor();

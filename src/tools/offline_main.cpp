@@ -1,4 +1,5 @@
-// mvis_offline --config DIR --bag FILE --output DIR [--imu-chain F] [--cam-chain F] [--target F]
+// mvis_offline --config DIR --bag FILE --output DIR [--params FILE]
+//              [--imu-chain F] [--cam-chain F] [--target F]
 //              [--truth DIR] [--interpolation imu|report]
 //              [--pixel-sigma PX] [--huber S] [--robust-loss frame|corner] [--window N]
 //              [--threads N]
@@ -11,6 +12,8 @@
 //              [--propagation-noise] [--imu-step S] [--hold SENSOR.QUANTITY]...
 //              [--failure-step-sigma S] [--frame-gate-sigma S] [--no-change-detection]
 //              [--batch [--batch-iterations N]]
+// --params reads the nodelet's parameter file (config/mvis.yaml) through the nodelet's own reader;
+// flags given on the command line override it.
 // Runs the estimator over a bag as fast as it can (no ROS master), writes the result directory
 // (the calibration files with *_std keys, trajectory.tum) and prints the calibration. With
 // --truth (a simulation's truth/ directory) it prints errors against the truth and the ATE.
@@ -28,102 +31,20 @@
 #include <string>
 
 #include "mvis/estimator/evaluation.h"
+#include "mvis/estimator/report.h"
 #include "mvis/estimator/result_directory.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/rig/trajectory_io.h"
+#include "mvis/ros/nodelet_options.h"
 #include "mvis/ros/offline.h"
+#include "offline_print.h"
 
 namespace {
 
-void printUsage(std::FILE* out) {
-  std::fprintf(out,
-               "usage: mvis_offline --config DIR --bag FILE --output DIR [--truth DIR]\n"
-               "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
-               "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
-               "                    [--robust-loss frame|corner]\n"
-               "                    [--window N] [--carried-tags N] [--no-own-tags] [--threads N]\n"
-               "                    [--max-iterations N] [--solve-every N] [--max-solve-time S]\n"
-               "                    [--aux-model velocity_state|rigid_velocity]\n"
-               "                    [--observability-ratio R] [--imu-observability-ratio R]\n"
-               "                    [--window-observability-ratio R]\n"
-               "                    [--estimate-intrinsics]\n"
-               "                    [--estimate-imu-intrinsics] [--estimate-gravity-sensitivity]\n"
-               "                    [--fixed-imu-linearization] [--propagation-noise]\n"
-               "                    [--imu-step S]\n"
-               "                    [--hold SENSOR.QUANTITY]...\n"
-               "                    [--failure-step-sigma S] [--frame-gate-sigma S]\n"
-               "                    [--no-change-detection]\n"
-               "                    [--batch [--batch-iterations N]\n"
-               "                             [--batch-covariance clustered|model]]\n"
-               "  --config DIR     the rig's initial calibration (kalibr_imu_chain.yaml,\n"
-               "                   kalibr_imucam_chain.yaml, aprilgrid.yaml)\n"
-               "  --imu-chain F, --cam-chain F, --target F  other names for those files\n"
-               "                   (relative to --config unless absolute), e.g. Kalibr's\n"
-               "                   imu-rig.yaml and camchain-imucam-rig.yaml\n"
-               "  --bag FILE       IMU and image (or tag detection) messages\n"
-               "  --output DIR     where the calibration and trajectory.tum go\n"
-               "  --truth DIR      a simulation's truth/: print errors and the ATE\n"
-               "  --interpolation  frame poses from the IMU (default) or the report's\n"
-               "                   kinematic/pose-based interpolation\n"
-               "  --pixel-sigma PX corner noise (default 1)\n"
-               "  --huber S        robust loss threshold [sigma] (default 3, 0: none)\n"
-               "  --robust-loss L  where the Huber loss acts: on each corner (corner, default)\n"
-               "                   or on a frame's corners together (frame)\n"
-               "  --window N       states in the sliding window (default 5)\n"
-               "  --carried-tags N without a board, the most tags carried across the window's\n"
-               "                   marginalizations (default 12, 0: every tag)\n"
-               "  --no-own-tags    without a board, leave out the tags beyond the carried ones\n"
-               "                   (window_own_tags: false; faster, less precise)\n"
-               "  --threads N      Ceres's threads for the solves (default 1; with more the\n"
-               "                   last digits of the result may vary from run to run)\n"
-               "  --max-iterations N  Ceres iterations per update (default 10)\n"
-               "  --solve-every N  solve after every n-th cam0 frame (default 3, at most the\n"
-               "                   window's states - 2)\n"
-               "  --max-solve-time S  time budget per solve [s] as the nodelet has it (0.05);\n"
-               "                   default none, so that results do not depend on the load\n"
-               "  --aux-model M    auxiliary IMU velocity as a state (velocity_state, default)\n"
-               "                   or rigid-body (rigid_velocity, the report's Appendix B)\n"
-               "  --observability-ratio R  degenerate-motion check threshold (default 500,\n"
-               "                   0: off; see config/mvis.yaml)\n"
-               "  --imu-observability-ratio R  the same for the IMU intrinsics (default 1)\n"
-               "  --window-observability-ratio R  the same asked of the window's information\n"
-               "                   about every calibration block jointly (default 0: off)\n"
-               "  --estimate-intrinsics  calibrate every camera's intrinsics and distortion\n"
-               "  --estimate-imu-intrinsics  calibrate Dw, Da, R_IMUtoACC (kalibr: R_IMUtoGYRO)\n"
-               "                   of every rpng or kalibr\n"
-               "                   inertial sensor (a gyroscope's Dw), re-integrating\n"
-               "  --estimate-gravity-sensitivity  and their Tg (a gyroscope's too)\n"
-               "  --fixed-imu-linearization  first order about the configured IMU intrinsics\n"
-               "                   instead of re-integrating (for comparison)\n"
-               "  --propagation-noise  a frame's IMU-propagated pose carries the readings'\n"
-               "                   noise instead of being exact (for corners of ~0.05 px)\n"
-               "  --imu-step S     inertial readings integrated in steps of at most S [s],\n"
-               "                   cubic in between (default 0.0025; 0: as they come)\n"
-               "  --hold S.Q       hold sensor S's quantity Q (extrinsic, time_offset,\n"
-               "                   intrinsics, gravity_sensitivity) at its configured value;\n"
-               "                   repeatable\n"
-               "  --failure-step-sigma S  an extrinsic's or time offset's step from the\n"
-               "                   trusted calibration beyond S of its sigma (scaled by how\n"
-               "                   much the calibration moves on this data) is a failure and\n"
-               "                   the window starts over (default 10, 0: no calibration checks;\n"
-               "                   see config/mvis.yaml)\n"
-               "  --frame-gate-sigma S  frames whose corners are beyond S sigma (median) of\n"
-               "                   where the trusted estimate puts them are dropped, and so\n"
-               "                   are single corners beyond it (default 10, 0: off)\n"
-               "  --no-change-detection  do not test the sensors for a changed calibration\n"
-               "                   (a knocked mount; on by default, with a board)\n"
-               "  --batch          after the online pass, solve every state of the recording\n"
-               "                   and the calibration at once from its result (the same\n"
-               "                   factors and priors), with the batch's covariance; the\n"
-               "                   online result goes to OUTPUT/online\n"
-               "  --batch-iterations N  at most N iterations of the batch (default 100)\n"
-               "  --batch-covariance  the batch's calibration sigmas: clustered (default;\n"
-               "                   the model's, plus what the residuals show beyond it, with\n"
-               "                   errors correlated along a corner's track, over a second of\n"
-               "                   frames or of inertial factors counted as they are) or\n"
-               "                   model (the inverse information: every residual as its\n"
-               "                   noise model says)\n");
-}
+using mvis_offline::percentile;
+using mvis_offline::printBatch;
+using mvis_offline::printUsage;
+using mvis_offline::writeReport;
 
 int usage(const char* message) {
   std::fprintf(stderr, "%s\n", message);
@@ -131,83 +52,55 @@ int usage(const char* message) {
   return 2;
 }
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
-}
-
-// The batch's solve and its whitened residuals per sensor.
-void printBatch(const mvis::OfflineResult& batch, const mvis::OfflineResult& online) {
-  const mvis::BatchSummary& b = *batch.batch;
-  std::printf(
-      "\nbatch: %d states, %d frames, %d corners; %d iterations (%s), cost %.6g -> %.6g; solve "
-      "%.1f s, with covariances %.1f s; reading the bag again and the solve %.1f s (%.1fx real "
-      "time)\n",
-      b.solve.states, b.solve.frames, b.solve.corners, b.solve.iterations,
-      b.converged ? "converged" : "iteration limit", b.initial_cost, b.solve.cost, b.solve.solve_s,
-      b.solve.total_s, batch.wall_seconds, batch.bag_seconds / batch.wall_seconds);
-  const mvis::TimeNs t0 = online.trajectory.empty() ? 0 : online.trajectory.front().stamp_ns;
-  if (!batch.trajectory.empty()) {
-    // A restart (a long hole in the base IMU's readings) leaves the batch what follows it.
-    std::printf(
-        "batch: its states span %.2f-%.2f s of the online pass's %.2f s%s\n",
-        mvis::toSeconds(batch.trajectory.front().stamp_ns - t0),
-        mvis::toSeconds(batch.trajectory.back().stamp_ns - t0),
-        online.trajectory.empty() ? 0.0 : mvis::toSeconds(online.trajectory.back().stamp_ns - t0),
-        batch.counters.restarts > 0 ? " (it started over: see its warnings)" : "");
+// The --params file's options (or the defaults, tag_decimate 1), with a relative config_dir
+// made relative to the file.
+mvis::StatusOr<mvis::NodeletOptions> readParams(int argc, char** argv) {
+  std::string path;
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--params") path = argv[i + 1];
   }
-  std::printf(
-      "batch residuals, whitened, at the solution (a camera's RMS in px; chi-square per "
-      "residual about 1 when the noise model fits):\n"
-      "sensor  kind            factors  residuals  chi2/residual       RMS  worst states (t [s]: "
-      "chi2/residual)\n");
-  for (const auto& s : b.residuals) {
-    std::printf("%-7s %-14s %8ld %10ld %14.3f %9.4f ", s.sensor.c_str(), s.kind.c_str(), s.factors,
-                s.residuals, s.chi_square / static_cast<double>(s.residuals), s.rms);
-    for (const auto& [t, chi2] : s.worst) std::printf(" %.2f: %.2f", mvis::toSeconds(t - t0), chi2);
-    std::printf("\n");
+  if (path.empty()) {
+    mvis::NodeletOptions defaults;
+    defaults.tag_decimate = 1.0;  // offline has the time for full resolution
+    return defaults;
   }
-  if (b.model_calibration) {  // the clustered covariance
-    std::printf(
-        "batch: the calibration's sigmas, with the errors the residuals show beyond their noise "
-        "model (clustered per corner track, second of frames, second of inertial factors), are "
-        "%.2f-%.2fx the inverse information's\n",
-        b.sigma_ratio_min, b.sigma_ratio_max);
+  auto read = mvis::NodeletOptions::fromYamlFile(path);
+  if (!read.ok()) return read;
+  mvis::NodeletOptions o = read.value();
+  if (!o.config_dir.empty() && o.config_dir.front() != '/') {
+    const std::size_t slash = path.rfind('/');
+    if (slash != std::string::npos) o.config_dir = path.substr(0, slash + 1) + o.config_dir;
   }
+  mvis::NodeletOptions check = o;
+  if (check.config_dir.empty()) check.config_dir = ".";  // --config may give it
+  if (const std::string problem = check.validate(); !problem.empty()) {
+    return mvis::Status::Error(path + ": " + problem);
+  }
+  return o;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_dir, bag_path, output_dir, truth_dir, interpolation = "imu";
-  std::string imu_chain, cam_chain, target;
-  std::string aux_model = "velocity_state";
-  double observability_ratio = mvis::EstimatorOptions{}.observability_ratio;
-  double imu_observability_ratio = mvis::EstimatorOptions{}.imu_intrinsics_observability_ratio;
-  double window_observability_ratio = mvis::EstimatorOptions{}.window_observability_ratio;
-  double failure_step_sigma = mvis::EstimatorOptions{}.failure_step_sigma;
-  double frame_gate_sigma = mvis::EstimatorOptions{}.frame_gate_sigma;
-  bool estimate_intrinsics = false;
-  bool estimate_imu_intrinsics = false, estimate_gravity_sensitivity = false;
-  bool fixed_imu_linearization = false;
-  std::vector<std::string> hold;
-  double pixel_sigma = mvis::EstimatorOptions{}.pixel_sigma_px;
-  double huber = mvis::EstimatorOptions{}.huber_sigma;
-  mvis::RobustLoss robust_loss = mvis::EstimatorOptions{}.robust_loss;
-  bool propagation_noise = false;
-  bool detect_changes = true;
-  double imu_step = mvis::EstimatorOptions{}.imu_integration_step_s;
-  double max_solve_time = 1e3;
-  int window = mvis::EstimatorOptions{}.window_size;
-  int carried_tags = mvis::EstimatorOptions{}.carried_tags;
-  bool window_own_tags = mvis::EstimatorOptions{}.window_own_tags;
-  int threads = mvis::EstimatorOptions{}.threads;
-  int iterations = mvis::EstimatorOptions{}.max_iterations;
-  int solve_every = mvis::EstimatorOptions{}.solve_every;
+  const auto params_read = readParams(argc, argv);
+  if (!params_read.ok()) {
+    std::fprintf(stderr, "mvis_offline: %s\n", params_read.status().message().c_str());
+    return 2;
+  }
+  const mvis::NodeletOptions& params = params_read.value();
+  // The flags below change what the --params file (or the defaults) set.
+  mvis::OfflineOptions options;
+  options.estimator = params.estimatorOptions();
+  options.frontend = params.frontendOptions();
+  mvis::EstimatorOptions& eo = options.estimator;
+  std::string config_dir = params.config_dir, bag_path, output_dir, truth_dir;
+  std::string imu_chain = params.imu_chain, cam_chain = params.cam_chain, target = params.target;
+  // Offline there is no deadline: without the per-solve time budget, results do not depend on
+  // the machine's load (unless --max-solve-time asks for the nodelet's).
+  eo.max_solve_time_s = 1e3;
+  eo.init_solve_time_s = 1e3;
   bool batch = false;
-  int batch_iterations = mvis::OfflineOptions{}.batch_iterations;
-  mvis::BatchCovariance batch_covariance = mvis::EstimatorOptions{}.batch_covariance;
+  int batch_iterations = options.batch_iterations;
   for (int i = 1; i < argc; ++i) {
     const auto value = [&](std::string* out) {
       if (i + 1 >= argc) return false;
@@ -219,7 +112,13 @@ int main(int argc, char** argv) {
       printUsage(stdout);
       return 0;
     }
-    if (arg == "--config") {
+    if (arg == "--params") {
+      ++i;  // read before the loop
+    } else if (arg == "--tag-decimate") {
+      std::string v;
+      if (!value(&v) || !(std::atof(v.c_str()) >= 1.0)) return usage("--tag-decimate takes >= 1");
+      options.frontend.detector.decimate = std::atof(v.c_str());
+    } else if (arg == "--config") {
       if (!value(&config_dir)) return usage("--config needs a directory");
     } else if (arg == "--bag") {
       if (!value(&bag_path)) return usage("--bag needs a file");
@@ -237,85 +136,88 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) > 0.0))
         return usage("--pixel-sigma takes pixels > 0");
-      pixel_sigma = std::atof(v.c_str());
+      eo.pixel_sigma_px = std::atof(v.c_str());
     } else if (arg == "--robust-loss") {
       std::string v;
       if (!value(&v) || (v != "frame" && v != "corner"))
         return usage("--robust-loss takes frame or corner");
-      robust_loss = v == "corner" ? mvis::RobustLoss::kCorner : mvis::RobustLoss::kFrame;
+      eo.robust_loss = v == "corner" ? mvis::RobustLoss::kCorner : mvis::RobustLoss::kFrame;
     } else if (arg == "--huber") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) return usage("--huber takes sigmas >= 0");
-      huber = std::atof(v.c_str());
+      eo.huber_sigma = std::atof(v.c_str());
     } else if (arg == "--max-solve-time") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) > 0.0)) {
         return usage("--max-solve-time takes seconds > 0");
       }
-      max_solve_time = std::atof(v.c_str());
+      eo.max_solve_time_s = std::atof(v.c_str());
     } else if (arg == "--threads") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) return usage("--threads takes a count >= 1");
-      threads = std::atoi(v.c_str());
+      eo.threads = std::atoi(v.c_str());
     } else if (arg == "--no-own-tags") {
-      window_own_tags = false;
+      eo.window_own_tags = false;
     } else if (arg == "--carried-tags") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 0) return usage("--carried-tags takes a count >= 0");
-      carried_tags = std::atoi(v.c_str());
+      eo.carried_tags = std::atoi(v.c_str());
     } else if (arg == "--window") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 3) return usage("--window takes a state count >= 3");
-      window = std::atoi(v.c_str());
+      eo.window_size = std::atoi(v.c_str());
     } else if (arg == "--solve-every") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) return usage("--solve-every takes a count >= 1");
-      solve_every = std::atoi(v.c_str());
+      eo.solve_every = std::atoi(v.c_str());
     } else if (arg == "--max-iterations") {
       std::string v;
       if (!value(&v) || std::atoi(v.c_str()) < 1) {
         return usage("--max-iterations takes a count >= 1");
       }
-      iterations = std::atoi(v.c_str());
+      eo.max_iterations = std::atoi(v.c_str());
     } else if (arg == "--aux-model") {
-      if (!value(&aux_model) || (aux_model != "velocity_state" && aux_model != "rigid_velocity")) {
+      std::string v;
+      if (!value(&v) || (v != "velocity_state" && v != "rigid_velocity")) {
         return usage("--aux-model takes velocity_state or rigid_velocity");
       }
+      eo.aux_imu_model = v == "rigid_velocity" ? mvis::AuxImuModel::kRigidVelocity
+                                               : mvis::AuxImuModel::kVelocityState;
     } else if (arg == "--observability-ratio" || arg == "--imu-observability-ratio" ||
                arg == "--window-observability-ratio") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0)) {
         return usage((arg + " takes a number >= 0").c_str());
       }
-      (arg == "--observability-ratio"       ? observability_ratio
-       : arg == "--imu-observability-ratio" ? imu_observability_ratio
-                                            : window_observability_ratio) = std::atof(v.c_str());
+      (arg == "--observability-ratio"       ? eo.observability_ratio
+       : arg == "--imu-observability-ratio" ? eo.imu_intrinsics_observability_ratio
+                                            : eo.window_observability_ratio) = std::atof(v.c_str());
     } else if (arg == "--estimate-intrinsics") {
-      estimate_intrinsics = true;
+      eo.estimate_intrinsics = true;
     } else if (arg == "--estimate-imu-intrinsics") {
-      estimate_imu_intrinsics = true;
+      eo.estimate_imu_intrinsics = true;
     } else if (arg == "--estimate-gravity-sensitivity") {
-      estimate_gravity_sensitivity = true;
+      eo.estimate_gravity_sensitivity = true;
     } else if (arg == "--fixed-imu-linearization") {
-      fixed_imu_linearization = true;
+      eo.imu_intrinsics_linearization = mvis::IntrinsicsLinearization::kFixed;
     } else if (arg == "--imu-step") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 0.0))
         return usage("--imu-step takes seconds >= 0");
-      imu_step = std::atof(v.c_str());
+      eo.imu_integration_step_s = std::atof(v.c_str());
     } else if (arg == "--propagation-noise") {
-      propagation_noise = true;
+      eo.propagation_noise = true;
     } else if (arg == "--no-change-detection") {
-      detect_changes = false;
+      eo.detect_changes = false;
     } else if (arg == "--hold") {
       std::string v;
       if (!value(&v)) return usage("--hold takes SENSOR.QUANTITY, e.g. cam1.intrinsics");
-      hold.push_back(v);
+      eo.hold.push_back(v);
     } else if (arg == "--failure-step-sigma" || arg == "--frame-gate-sigma") {
       std::string v;
       const double s = value(&v) ? std::atof(v.c_str()) : -1.0;
       if (!(s == 0.0 || s >= 3.0)) return usage((arg + " takes 0 (off) or sigmas >= 3").c_str());
-      (arg == "--failure-step-sigma" ? failure_step_sigma : frame_gate_sigma) = s;
+      (arg == "--failure-step-sigma" ? eo.failure_step_sigma : eo.frame_gate_sigma) = s;
     } else if (arg == "--batch") {
       batch = true;
     } else if (arg == "--batch-covariance") {
@@ -323,7 +225,7 @@ int main(int argc, char** argv) {
       if (!value(&v) || (v != "clustered" && v != "model")) {
         return usage("--batch-covariance takes clustered or model");
       }
-      batch_covariance =
+      eo.batch_covariance =
           v == "model" ? mvis::BatchCovariance::kModel : mvis::BatchCovariance::kClustered;
     } else if (arg == "--batch-iterations") {
       std::string v;
@@ -332,9 +234,12 @@ int main(int argc, char** argv) {
       }
       batch_iterations = std::atoi(v.c_str());
     } else if (arg == "--interpolation") {
-      if (!value(&interpolation) || (interpolation != "imu" && interpolation != "report")) {
+      std::string v;
+      if (!value(&v) || (v != "imu" && v != "report")) {
         return usage("--interpolation takes imu or report");
       }
+      eo.interpolation =
+          v == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
     } else {
       return usage(("unknown argument " + arg).c_str());
     }
@@ -362,40 +267,6 @@ int main(int argc, char** argv) {
     truth = loaded.value();
   }
 
-  mvis::OfflineOptions options;
-  options.estimator.pixel_sigma_px = pixel_sigma;
-  options.estimator.huber_sigma = huber;
-  options.estimator.robust_loss = robust_loss;
-  options.estimator.propagation_noise = propagation_noise;
-  options.estimator.detect_changes = detect_changes;
-  options.estimator.imu_integration_step_s = imu_step;
-  options.estimator.window_size = window;
-  options.estimator.carried_tags = carried_tags;
-  options.estimator.window_own_tags = window_own_tags;
-  options.estimator.threads = threads;
-  options.estimator.max_iterations = iterations;
-  options.estimator.solve_every = solve_every;
-  // Offline there is no deadline: without the per-solve time budget, results do not depend on
-  // the machine's load (unless --max-solve-time asks for the nodelet's).
-  options.estimator.max_solve_time_s = max_solve_time;
-  options.estimator.init_solve_time_s = 1e3;
-  options.estimator.aux_imu_model = aux_model == "rigid_velocity"
-                                        ? mvis::AuxImuModel::kRigidVelocity
-                                        : mvis::AuxImuModel::kVelocityState;
-  options.estimator.observability_ratio = observability_ratio;
-  options.estimator.imu_intrinsics_observability_ratio = imu_observability_ratio;
-  options.estimator.window_observability_ratio = window_observability_ratio;
-  options.estimator.estimate_intrinsics = estimate_intrinsics;
-  options.estimator.estimate_imu_intrinsics = estimate_imu_intrinsics;
-  options.estimator.estimate_gravity_sensitivity = estimate_gravity_sensitivity;
-  if (fixed_imu_linearization) {
-    options.estimator.imu_intrinsics_linearization = mvis::IntrinsicsLinearization::kFixed;
-  }
-  options.estimator.hold = hold;
-  options.estimator.failure_step_sigma = failure_step_sigma;
-  options.estimator.frame_gate_sigma = frame_gate_sigma;
-  options.estimator.interpolation =
-      interpolation == "imu" ? mvis::FrameInterpolation::kImu : mvis::FrameInterpolation::kReport;
   if (isatty(STDERR_FILENO)) {
     options.progress = [](double share, double bag_s) {
       const int width = 40, filled = static_cast<int>(share * width);
@@ -414,7 +285,6 @@ int main(int argc, char** argv) {
     // The same factors and priors over every state, from the online result.
     mvis::OfflineOptions b = options;
     b.estimator.batch = true;
-    b.estimator.batch_covariance = batch_covariance;
     b.estimator.observability_horizon_s = 1e9;  // the degeneracy check asks the whole recording
     b.estimator.failure_step_sigma = 0.0;       // nothing to start over to
     b.batch_start = &online.value().calibration;
@@ -449,9 +319,13 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "mvis_offline: batch: %ldx  %s  (first at %.2f s)\n", w.count,
                    w.example.c_str(), w.first_s);
     }
-    const mvis::Status saved_online =
+    mvis::Status saved_online =
         mvis::writeResultDirectory(output_dir + "/online", online.value().calibration,
                                    online.value().trajectory, online.value().log);
+    if (saved_online.ok()) {
+      saved_online = writeReport(output_dir + "/online", initial.value(), online.value(), options,
+                                 bag_path, "online (sliding window)");
+    }
     if (!saved_online.ok()) {
       std::fprintf(stderr, "mvis_offline: %s\n", saved_online.message().c_str());
       return 1;
@@ -459,6 +333,11 @@ int main(int argc, char** argv) {
   }
 
   mvis::Status saved = mvis::writeResultDirectory(output_dir, r.calibration, r.trajectory, r.log);
+  if (saved.ok()) {
+    saved = writeReport(
+        output_dir, initial.value(), r, options, bag_path,
+        batched ? "batch (every state of the recording at once)" : "online (sliding window)");
+  }
   if (saved.ok() && r.batch) {
     saved = mvis::writeBatchResiduals(output_dir, r.calibration, *r.batch,
                                       r.trajectory.empty() ? 0 : r.trajectory.back().stamp_ns);
@@ -562,7 +441,7 @@ int main(int argc, char** argv) {
     }
   }
   std::printf(
-      "\nresult: %s (kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
+      "\nresult: %s (report.md, kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, trajectory.tum, "
       "calibration.csv, pose_covariance.csv, calibration_changes.csv%s)\n",
       output_dir.c_str(),
       batched ? ", corner_residuals.csv, inertial_residuals.csv, calibration_model.csv with "

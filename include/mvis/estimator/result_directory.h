@@ -1,4 +1,4 @@
-// The result directory users get (../shared/interface.md): the calibration in the input format
+// The result directory users get (doc/formats.md): the calibration in the input format
 // with *_std keys (rig_io.h), the trajectory in TUM format (trajectory_io.h) and the estimate
 // over time (estimate_log.h). Written by mvis_offline, ~save_calibration and on shutdown.
 #pragma once

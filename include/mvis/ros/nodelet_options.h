@@ -4,7 +4,12 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "mvis/common/status.h"
+#include "mvis/estimator/estimator.h"
+#include "mvis/frontend/tag_frontend.h"
 
 namespace mvis {
 
@@ -14,6 +19,8 @@ struct NodeletOptions {
   // defaults kalibr_imu_chain.yaml, kalibr_imucam_chain.yaml, aprilgrid.yaml).
   std::string imu_chain, cam_chain, target;
   std::string world_frame = "odom";  // TF/odometry parent frame (REP-105)
+  std::string body_frame;            // odometry child frame; empty: <frame_prefix><base IMU>
+  bool publish_tf = true;            // world -> body, body -> sensors, world -> board
   std::string frame_prefix;          // prepended to sensor names to form their TF frames
   // "image" (sensor_msgs/Image on the camera's rostopic), "compressed"
   // (sensor_msgs/CompressedImage on <rostopic>/compressed, decoded by mvis) or "tag_detections"
@@ -53,11 +60,23 @@ struct NodeletOptions {
   double imu_intrinsics_observability_ratio = 1.0;  // EstimatorOptions; 0: off
   double observability_horizon_s = 5.0;             // [s] motion the check looks back over
   int solver_threads = 1;                           // Ceres threads
-  std::string result_dir;                           // written on shutdown and by ~save_calibration
+  // Parent of the result directories: each save writes a new <result_dir>/<UTC time> (empty:
+  // $ROS_HOME/mvis_results); on shutdown only with save_on_shutdown.
+  std::string result_dir;
+  bool save_on_shutdown = true;
+
+  // The estimator's and the tag front end's options these parameters set (both runners).
+  EstimatorOptions estimatorOptions() const;
+  TagFrontendOptions frontendOptions() const;
 
   // Empty when the options are usable, else what is wrong, naming the parameter.
   std::string validate() const;
   static NodeletOptions fromParameters(const ros::NodeHandle& private_nh);
+  // The same keys from a YAML file (config/mvis.yaml; mvis_offline --params). A key it does not
+  // know or a value of the wrong type is refused, naming the file and the key.
+  static StatusOr<NodeletOptions> fromYamlFile(const std::string& path);
+  // Every key with its value as text, in config/mvis.yaml's order (the report, the tests).
+  std::vector<std::pair<std::string, std::string>> values() const;
 };
 
 }  // namespace mvis

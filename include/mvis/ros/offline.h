@@ -55,6 +55,7 @@ struct OfflineResult {
   std::vector<double> decode_ms;           // per compressed image (decoding)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
+  ResidualStatistics residuals;       // Estimator::residualStatistics at the end
   double sigma_inflation = 1.0;       // Estimator::sigmaInflation at the end
   double time_offset_floor = 0.0;     // Estimator::timeOffsetFloor at the end [s] (NaN: none)
   std::string status;                 // the estimator's last word
