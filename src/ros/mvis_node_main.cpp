@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   // 2.1-2.2 ms on two cores against 0.12 ms with passive waiting (scripts/bench part 7). libgomp
   // reads the policy from the environment only, when it is loaded (before main), so the node
   // starts itself again with it set, unless the user chose one. A nodelet manager needs it in
-  // its own environment (README).
+  // its own environment (doc/live_rig.md, "Threads").
   if (std::getenv("OMP_WAIT_POLICY") == nullptr && setenv("OMP_WAIT_POLICY", "passive", 1) == 0) {
     execv("/proc/self/exe", argv);  // returns only on failure: then run as we are
   }

@@ -74,15 +74,12 @@ void MvisNodelet::onInit() {
   // Until the estimator has run, the calibration is the configured one, its uncertainty
   // not yet known (NaN standard deviations).
   mvis::Calibration calibration = ros_conversions::toCalibrationMsg(rig_, options_.frame_prefix);
-  calibration.header.stamp = ros::Time::now();
+  calibration.header.frame_id = bodyFrame();
+  if (!calibration.inertial.empty()) calibration.inertial[0].frame_id = bodyFrame();
+  calibration.header.stamp = ros::Time();  // no estimate yet
   out_.calibration.publish(calibration);
 
-  TagFrontendOptions frontend_options;
-  frontend_options.detector.decimate = options_.tag_decimate;
-  frontend_options.detector.refine_corners = options_.tag_refine_corners;
-  frontend_options.detector.max_hamming = options_.tag_max_hamming;
-  frontend_options.detector.threads = options_.tag_threads;
-  frontend_options.checks.max_hamming = options_.tag_max_hamming;
+  const TagFrontendOptions frontend_options = options_.frontendOptions();
   auto frontend = TagFrontend::create(rig_, frontend_options);
   if (!frontend.ok()) {
     stayDown(frontend.status().message());
@@ -91,36 +88,7 @@ void MvisNodelet::onInit() {
   frontend_ = std::move(frontend).value();
 
   {
-    EstimatorOptions eo;
-    eo.window_size = options_.window_size;
-    eo.carried_tags = options_.carried_tags;
-    eo.window_own_tags = options_.window_own_tags;
-    eo.pixel_sigma_px = options_.pixel_sigma;
-    eo.huber_sigma = options_.huber_sigma;
-    eo.robust_loss = options_.robust_loss == "frame" ? RobustLoss::kFrame : RobustLoss::kCorner;
-    eo.propagation_noise = options_.propagation_noise;
-    eo.min_tags = options_.min_tags;
-    eo.imu_max_gap_s = options_.imu_max_gap_s;
-    eo.failure_step_sigma = options_.failure_step_sigma;
-    eo.frame_gate_sigma = options_.frame_gate_sigma;
-    eo.detect_changes = options_.detect_changes;
-    eo.held_intrinsics_p = options_.held_intrinsics_p;
-    eo.estimate_extrinsics = options_.estimate_extrinsics;
-    eo.estimate_time_offsets = options_.estimate_time_offsets;
-    eo.estimate_aux_extrinsics = options_.estimate_aux_extrinsics;
-    eo.estimate_aux_time_offsets = options_.estimate_aux_time_offsets;
-    eo.estimate_intrinsics = options_.estimate_intrinsics;
-    eo.estimate_imu_intrinsics = options_.estimate_imu_intrinsics;
-    eo.estimate_gravity_sensitivity = options_.estimate_gravity_sensitivity;
-    eo.hold = options_.hold;
-    eo.aux_imu_model = options_.aux_imu_model == "rigid_velocity" ? AuxImuModel::kRigidVelocity
-                                                                  : AuxImuModel::kVelocityState;
-    eo.max_iterations = options_.max_iterations;
-    eo.solve_every = options_.solve_every;
-    eo.observability_ratio = options_.observability_ratio;
-    eo.imu_intrinsics_observability_ratio = options_.imu_intrinsics_observability_ratio;
-    eo.observability_horizon_s = options_.observability_horizon_s;
-    eo.threads = options_.solver_threads;
+    const EstimatorOptions eo = options_.estimatorOptions();
     auto estimator = Estimator::create(rig_, eo);
     if (!estimator.ok()) {
       stayDown(estimator.status().message());
@@ -142,6 +110,8 @@ void MvisNodelet::onInit() {
   path_.header.frame_id = options_.world_frame;
   in_.save_service =
       pnh.advertiseService("save_calibration", &MvisNodelet::onSaveCalibration, this);
+  in_.save_to_service =
+      pnh.advertiseService("save_calibration_to", &MvisNodelet::onSaveCalibrationTo, this);
   in_.reset_service = pnh.advertiseService("reset", &MvisNodelet::onReset, this);
 
   subscribeSensors();
@@ -154,6 +124,11 @@ void MvisNodelet::onInit() {
                                                 publishDiagnostics();
                                                 if (rig_.target) publishTags();
                                               });
+}
+
+std::string MvisNodelet::bodyFrame() const {
+  return options_.body_frame.empty() ? options_.frame_prefix + rig_.inertial[0].name
+                                     : options_.body_frame;
 }
 
 void MvisNodelet::stayDown(const std::string& reason) {
@@ -176,9 +151,7 @@ void MvisNodelet::subscribeSensors() {
     in_.subscribers.push_back(imu_nh.subscribe<sensor_msgs::Imu>(
         s.rostopic, 2000,
         boost::function<void(const ros::MessageEvent<sensor_msgs::Imu const>&)>(
-            [this, i](const ros::MessageEvent<sensor_msgs::Imu const>& event) {
-              onImu(i, event);
-            }),
+            [this, i](const ros::MessageEvent<sensor_msgs::Imu const>& event) { onImu(i, event); }),
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
   imu_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &imu_queue_);
@@ -384,12 +357,16 @@ MvisNodelet::~MvisNodelet() {
                    dropped);
     }
   }
-  if (!estimator_) return;
+  if (!estimator_ || !options_.save_on_shutdown) return;
   std::lock_guard<std::mutex> lock(estimator_mutex_);
   if (!estimator_->initialized() && estimator_->trajectory().empty()) return;
-  const std::string problem = saveResult();
-  if (!problem.empty())
+  std::string written;
+  const std::string problem = saveResult("", &written);
+  if (!problem.empty()) {
     std::fprintf(stderr, "mvis: could not write the result: %s\n", problem.c_str());
+  } else {
+    std::fprintf(stderr, "mvis: shutting down: the result is in %s\n", written.c_str());
+  }
 }
 
 void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
@@ -406,6 +383,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   }
   last_update_ = u;
   have_update_ = true;
+  if (first_stamp_ns_ == 0) first_stamp_ns_ = u.state.stamp_ns;
   {
     // The new anchor's readings integrated here, on the estimator's thread, not the IMU's.
     PreparedAnchor anchor;
@@ -418,9 +396,11 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
     odometry_->install(std::move(anchor));
     gravity_G_ = u.gravity_G;
     if (u.pose_covariance.allFinite()) last_pose_covariance_ = u.pose_covariance;
+    if (u.velocity_covariance.allFinite()) last_velocity_covariance_ = u.velocity_covariance;
+    if (u.gyro_bias_covariance.allFinite()) last_gyro_bias_covariance_ = u.gyro_bias_covariance;
   }
   const ros::Time stamp = ros_conversions::toRosTime(u.state.stamp_ns);
-  const std::string base = options_.frame_prefix + rig_.inertial[0].name;
+  const std::string base = bodyFrame();
   std::vector<geometry_msgs::TransformStamped> transforms;
   const Rig calibration = estimator_->calibration();
   if (u.solve.iterations > 0) estimate_log_.addCalibration(u.state.stamp_ns, calibration);
@@ -443,7 +423,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
     transforms.push_back(
         stampedTransform(s.T_i_b.inverse(), stamp, base, options_.frame_prefix + s.name));
   }
-  out_.tf->sendTransform(transforms);
+  if (options_.publish_tf) out_.tf->sendTransform(transforms);
   // Without a board the tags are estimates: republished after every solve.
   if (!rig_.target && u.solve.iterations > 0) publishTags();
 
@@ -470,7 +450,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
 void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arrival) {
   const ros::Time stamp = ros_conversions::toRosTime(state.stamp_ns);
   const std::string board = options_.frame_prefix + "board";
-  const std::string base = options_.frame_prefix + rig_.inertial[0].name;
+  const std::string base = bodyFrame();
   const SE3 T_W_G = worldFromBoard(gravity_G_);
   const SE3 T_W_I = T_W_G * state.T_G_I;
 
@@ -502,9 +482,32 @@ void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arr
   odom.twist.twist.angular.x = w_I.x();
   odom.twist.twist.angular.y = w_I.y();
   odom.twist.twist.angular.z = w_I.z();
+  // Twist covariance, in the body frame (ROS order: linear, then angular). Linear: the newest
+  // solved state's velocity covariance rotated into the body, plus what its orientation's
+  // uncertainty adds (v_I = R^T v_G, so dv_I = [v_I]x dtheta; first order, their correlation
+  // left out). Angular: the gyroscope bias's covariance plus one reading's white noise
+  // (noise density^2 x rate). Propagation since that state adds to both and is not counted.
+  const Eigen::Matrix3d R_I_G = (T_W_I.q.conjugate() * T_W_G.q).toRotationMatrix();
+  Eigen::Matrix3d v_cross;
+  v_cross << 0.0, -v_I.z(), v_I.y(), v_I.z(), 0.0, -v_I.x(), -v_I.y(), v_I.x(), 0.0;
+  const Eigen::Matrix3d linear =
+      R_I_G * last_velocity_covariance_ * R_I_G.transpose() +
+      v_cross * last_pose_covariance_.topLeftCorner<3, 3>() * v_cross.transpose();
+  const ImuNoise& noise = rig_.inertial[0].noise;
+  const Eigen::Matrix3d angular =
+      last_gyro_bias_covariance_ + Eigen::Matrix3d::Identity() * noise.gyroscope_noise_density *
+                                       noise.gyroscope_noise_density * rig_.inertial[0].update_rate;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      odom.twist.covariance[6 * r + c] = linear(r, c);
+      odom.twist.covariance[6 * (r + 3) + c + 3] = angular(r, c);
+    }
+  }
   out_.odometry.publish(odom);
-  out_.tf->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
-                          stampedTransform(state.T_G_I, stamp, board, base)});
+  if (options_.publish_tf) {
+    out_.tf->sendTransform({stampedTransform(T_W_G, stamp, options_.world_frame, board),
+                            stampedTransform(state.T_G_I, stamp, board, base)});
+  }
   const ros::WallTime now = ros::WallTime::now();
   OdometryTiming& timing = odometry_timing_;
   const double latency_ms = (now - arrival).toSec() * 1e3;
@@ -526,7 +529,11 @@ void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arr
 void MvisNodelet::publishCalibration() {
   mvis::Calibration msg =
       ros_conversions::toCalibrationMsg(estimator_->calibration(), options_.frame_prefix);
-  msg.header.stamp = ros::Time::now();
+  msg.header.frame_id = bodyFrame();
+  if (!msg.inertial.empty()) msg.inertial[0].frame_id = bodyFrame();
+  // The newest estimate's time (base clock); zero before the first.
+  msg.header.stamp =
+      have_update_ ? ros_conversions::toRosTime(last_update_.state.stamp_ns) : ros::Time();
   if (have_update_) {
     for (const auto& d : last_update_.unobservable) msg.unobservable.push_back(d.text());
   }

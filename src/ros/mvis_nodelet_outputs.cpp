@@ -10,17 +10,24 @@
 namespace mvis {
 namespace {
 
-diagnostic_msgs::DiagnosticStatus makeStatus(std::uint8_t level, const std::string& name,
-                                             const std::string& message) {
+// Named after the node ("<node name>: <part>", hardware_id the node's name), so that two
+// instances' diagnostics stay apart.
+diagnostic_msgs::DiagnosticStatus makeStatus(const std::string& node, std::uint8_t level,
+                                             const std::string& name, const std::string& message) {
   diagnostic_msgs::DiagnosticStatus status;
   status.level = level;
-  status.name = "mvis: " + name;
-  status.hardware_id = "mvis";
+  status.name = node + ": " + name;
+  status.hardware_id = node;
   status.message = message;
   return status;
 }
 
 }  // namespace
+
+std::string MvisNodelet::diagnosticsName() const {
+  const std::string& name = getName();
+  return !name.empty() && name.front() == '/' ? name.substr(1) : name;
+}
 
 // What an update says the motion leaves unobservable, in words, '; '-separated.
 std::string MvisNodelet::joinedText(const std::vector<UnobservableCalibration>& unobservable) {
@@ -33,17 +40,18 @@ void MvisNodelet::publishDiagnostics() {
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = ros::Time::now();
   if (!config_error_.empty()) {
-    array.status.push_back(
-        makeStatus(diagnostic_msgs::DiagnosticStatus::ERROR, "configuration", config_error_));
+    array.status.push_back(makeStatus(diagnosticsName(), diagnostic_msgs::DiagnosticStatus::ERROR,
+                                      "configuration", config_error_));
     out_.diagnostics.publish(array);
     return;
   }
-  array.status.push_back(makeStatus(diagnostic_msgs::DiagnosticStatus::OK, "configuration",
-                                    "loaded " + options_.config_dir));
+  array.status.push_back(makeStatus(diagnosticsName(), diagnostic_msgs::DiagnosticStatus::OK,
+                                    "configuration", "loaded " + options_.config_dir));
   if (estimator_) {
     std::lock_guard<std::mutex> lock(estimator_mutex_);
     const bool running = estimator_->initialized();
     auto status = makeStatus(
+        diagnosticsName(),
         running ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
         "estimator", estimator_->status());
     auto add = [&status](const std::string& key, const std::string& value) {
@@ -115,7 +123,7 @@ void MvisNodelet::publishDiagnostics() {
     } else {
       std::snprintf(text, sizeof(text), "%.1f Hz on %s", rate, t.topic.c_str());
     }
-    auto status = makeStatus(level, t.name, text);
+    auto status = makeStatus(diagnosticsName(), level, t.name, text);
     const auto add = [&status](const char* key, std::uint64_t value) {
       diagnostic_msgs::KeyValue kv;
       kv.key = key;
@@ -156,7 +164,7 @@ diagnostic_msgs::DiagnosticStatus MvisNodelet::odometryStatus() {
     std::snprintf(text, sizeof(text), "latency p50 %.2f ms, p99 %.2f ms; estimator %.2f s behind",
                   quantile(0.5), quantile(0.99), backlog.oldest_s);
   }
-  auto status = makeStatus(level, "odometry", text);
+  auto status = makeStatus(diagnosticsName(), level, "odometry", text);
   const auto add = [&status](const char* key, double value) {
     diagnostic_msgs::KeyValue kv;
     kv.key = key;

@@ -72,7 +72,7 @@ class Knock(unittest.TestCase):
         rospy.wait_for_service("/mvis/save_calibration", 10)
         reply = rospy.ServiceProxy("/mvis/save_calibration", Trigger)()
         self.assertTrue(reply.success, reply.message)
-        result = os.path.join(self.data, "result")
+        result = reply.message[len("saved to "):]
         with open(os.path.join(result, "calibration_changes.csv")) as f:
             rows = list(csv.DictReader(f))
         self.assertTrue(rows)

@@ -13,6 +13,7 @@ import unittest
 import rospy
 import rostest
 from mvis.msg import Calibration
+from mvis.srv import SaveCalibration
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Imu
@@ -103,6 +104,13 @@ class Replay(unittest.TestCase):
         # Measured ~2-5 mm a few seconds into the run; 3 cm catches a wrong frame or clock.
         self.assertLess(max(errors), 0.03, max(errors))
         self.assertTrue(all(math.isfinite(v) for v in last.pose.covariance))
+        # Twist covariance filled: linear from the state's velocity covariance (mm/s-level on
+        # this rig), angular at least one gyroscope reading's white noise.
+        twist = last.twist.covariance
+        self.assertTrue(all(math.isfinite(v) for v in twist))
+        for i in range(6):
+            self.assertGreater(twist[7 * i], 0.0, i)
+        self.assertLess(max(twist[7 * i] for i in range(3)), 0.1 ** 2)
 
         for parent, child in [("odom", "board"), ("board", "imu0"), ("imu0", "cam0"),
                               ("imu0", "cam1"), ("imu0", "cam2"), ("imu0", "imu1"),
@@ -136,9 +144,40 @@ class Replay(unittest.TestCase):
         rospy.wait_for_service("/mvis/save_calibration", 10)
         reply = rospy.ServiceProxy("/mvis/save_calibration", Trigger)()
         self.assertTrue(reply.success, reply.message)
-        result = os.path.join(self.data, "result")
-        for name in ["kalibr_imu_chain.yaml", "kalibr_imucam_chain.yaml", "trajectory.tum"]:
+        self.assertTrue(reply.message.startswith("saved to "), reply.message)
+        result = reply.message[len("saved to "):]
+        self.assertEqual(os.path.dirname(result), os.path.join(self.data, "result"))
+        self.assertEqual(os.path.realpath(os.path.join(self.data, "result", "latest")),
+                         os.path.realpath(result))
+        for name in ["kalibr_imu_chain.yaml", "kalibr_imucam_chain.yaml", "trajectory.tum",
+                     "report.md"]:
             self.assertTrue(os.path.isfile(os.path.join(result, name)), name)
+        with open(os.path.join(result, "report.md")) as f:
+            report = f.read()
+        self.assertIn("## Residuals", report)
+        self.assertIn("mvis nodelet /mvis", report)
+        # Every camera's corners counted, with an RMS near the rig's 0.5 px noise.
+        for cam in ["cam0", "cam1", "cam2"]:
+            row = [line for line in report.splitlines() if line.startswith("| %s | camera" % cam)]
+            self.assertEqual(len(row), 1, cam)
+            cells = [c.strip() for c in row[0].split("|")]
+            self.assertGreater(int(cells[4]), 1000, row[0])
+            self.assertLess(float(cells[5]), 2.0, row[0])
+        # A second save is a new directory; save_calibration_to refuses a non-empty one.
+        again = rospy.ServiceProxy("/mvis/save_calibration", Trigger)()
+        self.assertTrue(again.success, again.message)
+        self.assertNotEqual(again.message, reply.message)
+        rospy.wait_for_service("/mvis/save_calibration_to", 10)
+        save_to = rospy.ServiceProxy("/mvis/save_calibration_to", SaveCalibration)
+        refused = save_to(result)
+        self.assertFalse(refused.success)
+        self.assertIn("never overwritten", refused.message)
+        named = os.path.join(self.data, "named_result")
+        written = save_to(named)
+        self.assertTrue(written.success, written.message)
+        self.assertEqual(written.directory, named)
+        self.assertEqual(written.message, "saved to " + named)
+        self.assertTrue(os.path.isfile(os.path.join(named, "report.md")))
         with open(os.path.join(result, "kalibr_imucam_chain.yaml")) as f:
             self.assertIn("T_cam_imu_std", f.read())
         with open(os.path.join(result, "kalibr_imu_chain.yaml")) as f:

@@ -53,10 +53,12 @@ class ReplayWithoutBoard(unittest.TestCase):
         rospy.wait_for_service("/mvis/save_calibration", 10)
         reply = rospy.ServiceProxy("/mvis/save_calibration", Trigger)()
         self.assertTrue(reply.success, reply.message)
-        for name in ["kalibr_imu_chain.yaml", "kalibr_imucam_chain.yaml", "trajectory.tum"]:
-            self.assertTrue(os.path.isfile(os.path.join(self.result, name)), name)
-        self.assertFalse(os.path.exists(os.path.join(self.result, "aprilgrid.yaml")))
-        with open(os.path.join(self.result, "trajectory.tum")) as f:
+        result = os.path.join(self.result, "latest")
+        for name in ["kalibr_imu_chain.yaml", "kalibr_imucam_chain.yaml", "trajectory.tum",
+                     "report.md"]:
+            self.assertTrue(os.path.isfile(os.path.join(result, name)), name)
+        self.assertFalse(os.path.exists(os.path.join(result, "aprilgrid.yaml")))
+        with open(os.path.join(result, "trajectory.tum")) as f:
             states = [line for line in f if line.strip() and not line.startswith("#")]
         self.assertGreater(len(states), 20)
 

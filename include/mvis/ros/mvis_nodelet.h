@@ -4,6 +4,7 @@
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
 #include <image_transport/image_transport.h>
+#include <mvis/SaveCalibration.h>
 #include <mvis/TagDetectionArray.h>
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
@@ -85,9 +86,20 @@ class MvisNodelet : public nodelet::Nodelet {
   void publishCalibration();
   // The board's tags as rviz markers in the board frame (latched, once).
   void publishTags();
-  // Writes the result directory; empty on success, else what went wrong.
-  std::string saveResult();
+  // The node's name without the leading '/' ("mvis", "robot1/mvis"): the diagnostics' prefix.
+  std::string diagnosticsName() const;
+  // The base IMU's frame in odometry, TF and the calibration message (~body_frame).
+  std::string bodyFrame() const;
+  // Writes a result directory: `dir`, or a new <result_dir>/<UTC time> when empty; refuses a
+  // directory that exists and is not empty. Empty on success, else what went wrong; `written`
+  // gets the directory.
+  std::string saveResult(const std::string& dir, std::string* written);
+  // saveResult on the estimator's thread, for a service: the reply's message ("saved to DIR"
+  // or what went wrong); `written` gets the directory.
+  std::string saveForService(const std::string& requested, bool* success, std::string* written);
   bool onSaveCalibration(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
+  bool onSaveCalibrationTo(mvis::SaveCalibration::Request& request,
+                           mvis::SaveCalibration::Response& response);
   bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
   // Counts a camera message that could not be used and says why (throttled).
   void rejectCameraMessage(std::size_t camera, const std::string& why);
@@ -111,6 +123,8 @@ class MvisNodelet : public nodelet::Nodelet {
   std::mutex odometry_mutex_;  // guards the members up to the estimator's
   std::unique_ptr<OdometryPropagator> odometry_;
   Eigen::Matrix<double, 6, 6> last_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix3d last_velocity_covariance_ = Eigen::Matrix3d::Zero();   // v_G [(m/s)^2]
+  Eigen::Matrix3d last_gyro_bias_covariance_ = Eigen::Matrix3d::Zero();  // [(rad/s)^2]
   Eigen::Vector3d gravity_G_ = Eigen::Vector3d::Zero();
   // From a base reading's arrival (its receipt by ROS; the callback's start under simulated
   // time) to its odometry message: this diagnostics period's latencies and largest interval
@@ -141,6 +155,7 @@ class MvisNodelet : public nodelet::Nodelet {
   std::string last_change_;      // the last change of a sensor's calibration, for diagnostics
   EstimatorUpdate last_update_;
   bool have_update_ = false;
+  TimeNs first_stamp_ns_ = 0;  // the first update's state (base clock), for the report
   // Calibration after every solve and pose covariances, for results; thinned past 5,000 rows a
   // table (~3 and ~2 MB), so that a node left running stays flat.
   EstimateLog estimate_log_{5000};
@@ -151,7 +166,7 @@ class MvisNodelet : public nodelet::Nodelet {
     std::unique_ptr<image_transport::ImageTransport> private_image_transport;
     std::vector<ros::Subscriber> subscribers;
     std::vector<image_transport::Subscriber> image_subscribers;
-    ros::ServiceServer save_service, reset_service;
+    ros::ServiceServer save_service, save_to_service, reset_service;
   } in_;
   // What it publishes.
   struct Outputs {
