@@ -1,4 +1,4 @@
-// Reading and writing the rig's configuration files (see doc/conventions.md and README):
+// Reading and writing the rig's configuration files (see doc/conventions.md and doc/formats.md):
 //   kalibr_imu_chain.yaml     every inertial sensor (imu0 = base IMU)
 //   kalibr_imucam_chain.yaml  every camera
 //   aprilgrid.yaml            the tag board (optional)
