@@ -9,6 +9,7 @@ function(mvis_core_test name)
 endfunction()
 
 mvis_core_test(test_lie test/unit/test_lie.cpp)
+mvis_core_test(test_calibration_status test/unit/test_calibration_status.cpp)
 mvis_core_test(test_tag_landmark_manifold test/unit/test_tag_landmark_manifold.cpp)
 mvis_core_test(test_rig_io test/unit/test_rig_io.cpp test/unit/test_rig_io_errors.cpp
   test/unit/test_rig_io_formats.cpp)
@@ -171,6 +172,11 @@ add_test(NAME python_result_yaml
 add_test(NAME report_md
   COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/yaml/check_report.py
     $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)
+# Guided calibration: ready in time and honest on hand-held motion, never on yaw only, camera
+# distortion not converged without the image's corners.
+add_test(NAME guided_calibration
+  COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/guided/check_guided.py
+    $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_vi_rig)
 # mvis_offline --params with an unknown key: refused at start (exit 2), naming the file and key.
 add_test(NAME offline_params_refused
   COMMAND ${PROJECT_SOURCE_DIR}/test/tools/offline_params_refused.sh $<TARGET_FILE:mvis_offline>)

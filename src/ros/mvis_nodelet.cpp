@@ -3,6 +3,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <mvis/CalibrationStatus.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/image_encodings.h>
@@ -71,6 +72,8 @@ void MvisNodelet::onInit() {
   out_.odometry = pnh.advertise<nav_msgs::Odometry>("odometry", 100);
   out_.path = pnh.advertise<nav_msgs::Path>("path", 1, true);
   out_.calibration = pnh.advertise<mvis::Calibration>("calibration", 1, true);
+  out_.status = pnh.advertise<mvis::CalibrationStatus>("calibration_status", 1, true);
+  out_.status_markers = pnh.advertise<visualization_msgs::MarkerArray>("status_markers", 1, true);
   // Until the estimator has run, the calibration is the configured one, its uncertainty
   // not yet known (NaN standard deviations).
   mvis::Calibration calibration = ros_conversions::toCalibrationMsg(rig_, options_.frame_prefix);
@@ -95,6 +98,7 @@ void MvisNodelet::onInit() {
       return;
     }
     estimator_ = std::move(estimator).value();
+    status_ = std::make_unique<CalibrationStatusTracker>(rig_, eo, options_.statusTargets());
     estimator_->setUpdateCallback([this](const EstimatorUpdate& u) { onUpdate(u); });
     odometry_ = std::make_unique<OdometryPropagator>(rig_.inertial[0], eo.imu_integration_step_s);
     worker_ = std::make_unique<SerialWorker>(kMaxBacklog);
@@ -166,6 +170,7 @@ void MvisNodelet::subscribeSensors() {
     const auto& cam = rig_.cameras[c];
     out_.debug_images.push_back(
         in_.private_image_transport->advertise(cam.name + "/debug_image", 1));
+    out_.coverage.push_back(in_.private_image_transport->advertise(cam.name + "/coverage", 1));
     if (options_.camera_input == "image") {
       traffic_.push_back({cam.name, cam.rostopic, 0.0, 0, 0, {}, 0, now});
       in_.image_subscribers.push_back(in_.image_transport->subscribe(
@@ -332,7 +337,9 @@ void MvisNodelet::recordTags(std::size_t camera, const TagFrontendResult& result
     toEstimator(rig_.cameras[camera].name, [this, frame = result.frame] {
       std::lock_guard<std::mutex> lock(estimator_mutex_);
       const long restarts = estimator_->counters().restarts;
-      noteEstimatorStatus(restarts, estimator_->addTagFrame(frame));
+      const Status added = estimator_->addTagFrame(frame);
+      if (added.ok() && status_) status_->addFrame(frame);
+      noteEstimatorStatus(restarts, added);
     });
   }
   std::lock_guard<std::mutex> lock(mutex_);
@@ -445,6 +452,7 @@ void MvisNodelet::onUpdate(const EstimatorUpdate& u) {
   }
   if (path_.poses.size() % 30 == 0) out_.path.publish(path_);
   if (u.calibration_covariance_updated || !u.changes.empty()) publishCalibration();
+  if (u.calibration_covariance_updated) updateStatus(u);
 }
 
 void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arrival) {

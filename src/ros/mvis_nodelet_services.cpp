@@ -82,6 +82,11 @@ std::string MvisNodelet::saveResult(const std::string& requested, std::string* w
     if (!estimator_error_.empty()) in.warnings.push_back("last problem: " + estimator_error_);
     in.counters = estimator_->counters();
     in.sigma_inflation = estimator_->sigmaInflation();
+    if (status_) {
+      in.statuses = status_->states();
+      in.status_timeline = status_timeline_;
+      in.coverage = status_->coverage();
+    }
     status = writeReport(dir, in);
   }
   if (!status.ok()) return status.message();

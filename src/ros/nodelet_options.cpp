@@ -56,6 +56,14 @@ void readKeys(NodeletOptions& o, Read&& read) {
   read("observability_horizon", o.observability_horizon_s);
   read("imu_intrinsics_observability_ratio", o.imu_intrinsics_observability_ratio);
   read("solver_threads", o.solver_threads);
+  read("ready_rotation_deg", o.ready.rotation_deg);
+  read("ready_camera_translation_mm", o.ready.camera_translation_mm);
+  read("ready_imu_translation_mm", o.ready.imu_translation_mm);
+  read("ready_time_offset_ms", o.ready.time_offset_ms);
+  read("ready_camera_intrinsics_px", o.ready.camera_intrinsics_px);
+  read("ready_camera_distortion", o.ready.camera_distortion);
+  read("ready_imu_intrinsics", o.ready.imu_intrinsics);
+  read("ready_gravity_sensitivity", o.ready.gravity_sensitivity);
   read("result_dir", o.result_dir);
   read("save_on_shutdown", o.save_on_shutdown);
 }
@@ -218,6 +226,11 @@ std::string NodeletOptions::validate() const {
            "with at least three later states before it is marginalized)";
   }
   if (solver_threads < 1) return "parameter ~solver_threads must be >= 1";
+  for (const auto& [key, value] : values()) {
+    if (key.rfind("ready_", 0) == 0 && !(std::stod(value) > 0.0)) {
+      return "parameter ~" + key + " must be positive";
+    }
+  }
   return "";
 }
 

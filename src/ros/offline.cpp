@@ -133,21 +133,31 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
 
   OfflineResult result;
   double bag_time = 0.0;  // of the message being read [s from the start]
-  estimator->setUpdateCallback([&result, &estimator, &bag_time, batch](const EstimatorUpdate& u) {
-    result.update_ms.push_back(u.solve.total_s * 1e3);
-    if (u.solve.iterations > 0 && !batch) {
-      result.solve_iterations.push_back(u.solve.iterations);
-      result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
-    }
-    result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
-    for (const auto& c : u.changes) {
-      result.log.addChange(c.stamp_ns, c.sensor, c.quantity, c.size, c.size_sigma);
-      result.changes.push_back(c);
-      result.change_bag_s.push_back(bag_time);
-    }
-    result.unobservable.clear();
-    for (const auto& d : u.unobservable) result.unobservable.push_back(d.text());
-  });
+  CalibrationStatusTracker tracker(initial, options.estimator, options.status_targets);
+  estimator->setUpdateCallback(
+      [&result, &estimator, &bag_time, &tracker, batch](const EstimatorUpdate& u) {
+        result.update_ms.push_back(u.solve.total_s * 1e3);
+        if (u.solve.iterations > 0 && !batch) {
+          result.solve_iterations.push_back(u.solve.iterations);
+          result.log.addCalibration(u.state.stamp_ns, estimator->calibration());
+        }
+        result.log.addPose(u.state.stamp_ns, u.state.T_G_I, u.pose_covariance);
+        for (const auto& c : u.changes) {
+          result.log.addChange(c.stamp_ns, c.sensor, c.quantity, c.size, c.size_sigma);
+          result.changes.push_back(c);
+          result.change_bag_s.push_back(bag_time);
+        }
+        result.unobservable.clear();
+        for (const auto& d : u.unobservable) result.unobservable.push_back(d.text());
+        if (u.calibration_covariance_updated && !batch) {
+          for (const QuantityState& s :
+               tracker.update(u.state.stamp_ns, estimator->calibration(), u.unobservable)) {
+            result.log.addStatus(u.state.stamp_ns, s.sensor, s.quantity, s.statusText(), s.sigma,
+                                 s.target, s.advice);
+            result.status_timeline.push_back({bag_time, s});
+          }
+        }
+      });
   std::map<std::string, std::size_t> kinds;  // kind -> index in result.warning_kinds
   const auto note = [&](const std::string& message) {
     const auto [it, added] = kinds.emplace(kindOf(message), result.warning_kinds.size());
@@ -229,6 +239,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         frontend->dropBefore(camera, stamp - kNsPerSecond);
         const Status status = estimator->addTagFrame(tags.value().frame);
         if (!status.ok()) note(status.message());
+        if (status.ok()) tracker.addFrame(tags.value().frame);
       } else if (auto id = detection_topics.find(topic); id != detection_topics.end()) {
         const auto msg = m.instantiate<mvis::TagDetectionArray>();
         if (!msg) continue;
@@ -244,6 +255,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         frontend->dropBefore(id->second, stamp - kNsPerSecond);
         const Status status = estimator->addTagFrame(tags.value().frame);
         if (!status.ok()) note(status.message());
+        if (status.ok()) tracker.addFrame(tags.value().frame);
       }
     }
     result.bag_seconds = end - begin;
@@ -293,6 +305,8 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     }
   }
   result.residuals = estimator->residualStatistics();
+  result.statuses = tracker.states();
+  result.coverage = tracker.coverage();
   result.counters = estimator->counters();
   result.sigma_inflation = estimator->sigmaInflation();
   result.time_offset_floor = estimator->timeOffsetFloor();

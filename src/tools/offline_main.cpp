@@ -92,6 +92,7 @@ int main(int argc, char** argv) {
   mvis::OfflineOptions options;
   options.estimator = params.estimatorOptions();
   options.frontend = params.frontendOptions();
+  options.status_targets = params.statusTargets();
   mvis::EstimatorOptions& eo = options.estimator;
   std::string config_dir = params.config_dir, bag_path, output_dir, truth_dir;
   std::string imu_chain = params.imu_chain, cam_chain = params.cam_chain, target = params.target;
@@ -408,6 +409,30 @@ int main(int argc, char** argv) {
     }
     std::printf("\ncalibration change at %.2f s of the bag: %s", with_changes.change_bag_s[i],
                 changes[i].text.c_str());
+  }
+  // Guided calibration (the online pass): when the rig became ready, or what it still misses.
+  {
+    double ready_at = -1.0;
+    bool ready = false;
+    for (const auto& e : o.status_timeline) {
+      if (e.state.sensor != "rig") continue;
+      ready = e.state.ready;
+      ready_at = ready ? e.bag_s : -1.0;
+    }
+    if (ready) {
+      std::printf("\nrig ready at %.1f s of the bag: every estimated quantity converged", ready_at);
+    } else if (!o.statuses.empty()) {
+      std::printf("\nrig not ready at the end; still missing:");
+      for (const mvis::QuantityState& q : o.statuses) {
+        if (q.status != mvis::QuantityStatus::kImproving &&
+            q.status != mvis::QuantityStatus::kUnobservable) {
+          continue;
+        }
+        std::printf("\n  %s %s: %s (sigma %.3g of %.3g %s)%s%s", q.sensor.c_str(),
+                    q.quantity.c_str(), q.statusText().c_str(), q.sigma, q.target, q.unit.c_str(),
+                    q.advice.empty() ? "" : ": ", q.advice.c_str());
+      }
+    }
   }
   for (const std::string& u : r.unobservable) {
     std::printf("\nheld at the end (the motion could not calibrate it): %s", u.c_str());

@@ -183,6 +183,9 @@ mvis::Status writeReport(const std::string& dir, const mvis::Rig& initial,
   for (const auto& w : r.warnings) in.warnings.push_back(w);
   in.counters = r.counters;
   in.sigma_inflation = r.sigma_inflation;
+  in.statuses = r.statuses;
+  for (const auto& e : r.status_timeline) in.status_timeline.emplace_back(e.bag_s, e.state);
+  in.coverage = r.coverage;
   return mvis::writeReport(dir, in);
 }
 

@@ -5,6 +5,7 @@ pause while the estimator solves, TF for the world, board, base IMU, every camer
 auxiliary sensor, a calibration message with finite standard deviations for the cameras and the
 auxiliary sensors, and a result directory on ~save_calibration."""
 import bisect
+import csv
 import math
 import os
 import time
@@ -12,7 +13,7 @@ import unittest
 
 import rospy
 import rostest
-from mvis.msg import Calibration
+from mvis.msg import Calibration, CalibrationStatus
 from mvis.srv import SaveCalibration
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -46,7 +47,7 @@ class Replay(unittest.TestCase):
         cls.data = rospy.get_param("~data")
 
     def test_replay(self):
-        odometry, frames, calibrations, diagnostics = [], set(), [], []
+        odometry, frames, calibrations, diagnostics, statuses = [], set(), [], [], []
         odometry_arrival, imu_arrival = {}, {}
 
         def on_odometry(msg):
@@ -65,6 +66,7 @@ class Replay(unittest.TestCase):
             rospy.Subscriber("/tf", TFMessage, lambda m: frames.update(
                 (t.header.frame_id, t.child_frame_id) for t in m.transforms)),
             rospy.Subscriber("/mvis/calibration", Calibration, calibrations.append),
+            rospy.Subscriber("/mvis/calibration_status", CalibrationStatus, statuses.append),
         ]
         deadline = time.time() + TIMEOUT_S
         # The bag lasts 8 s; initialization takes 1.5 s (clock check), odometry comes at the
@@ -141,6 +143,24 @@ class Replay(unittest.TestCase):
             else:
                 self.assertEqual(max(s.translation_std), 0.0, s.name)  # not calibrated
 
+        # Guided calibration: one entry per calibrated quantity, each with a status and (while
+        # not done) its sigma against its target.
+        self.assertTrue(statuses)
+        status = statuses[-1]
+        quantities = {(q.sensor, q.quantity): q for q in status.quantities}
+        for cam in ["cam0", "cam1", "cam2"]:
+            for quantity in ["rotation", "translation", "time_offset"]:
+                self.assertIn((cam, quantity), quantities)
+        self.assertIn(("imu2", "rotation"), quantities)
+        self.assertNotIn(("imu2", "translation"), quantities)  # a gyroscope
+        for q in status.quantities:
+            self.assertIn(q.status, ["converged", "improving", "unobservable", "held"])
+            self.assertTrue(math.isfinite(q.sigma), (q.sensor, q.quantity))
+            self.assertGreater(q.target, 0.0)
+        # 8 s from 2 deg / 1 cm / 5 ms off cannot make the rig ready at the defaults' targets.
+        self.assertFalse(status.ready)
+        self.assertTrue(any(q.status == "improving" and q.advice for q in status.quantities))
+
         rospy.wait_for_service("/mvis/save_calibration", 10)
         reply = rospy.ServiceProxy("/mvis/save_calibration", Trigger)()
         self.assertTrue(reply.success, reply.message)
@@ -150,10 +170,15 @@ class Replay(unittest.TestCase):
         self.assertEqual(os.path.realpath(os.path.join(self.data, "result", "latest")),
                          os.path.realpath(result))
         for name in ["kalibr_imu_chain.yaml", "kalibr_imucam_chain.yaml", "trajectory.tum",
-                     "report.md"]:
+                     "report.md", "calibration_status.csv"]:
             self.assertTrue(os.path.isfile(os.path.join(result, name)), name)
+        with open(os.path.join(result, "calibration_status.csv")) as f:
+            rows = list(csv.DictReader(f))
+        self.assertTrue(any(r["sensor"] == "rig" and r["quantity"] == "all" for r in rows))
+        self.assertTrue(any(r["sensor"] == "cam0" and r["quantity"] == "rotation" for r in rows))
         with open(os.path.join(result, "report.md")) as f:
             report = f.read()
+        self.assertIn("## Status", report)
         self.assertIn("## Residuals", report)
         self.assertIn("mvis nodelet /mvis", report)
         # Every camera's corners counted, with an RMS near the rig's 0.5 px noise.

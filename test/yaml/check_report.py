@@ -23,6 +23,9 @@ import tempfile
 import numpy as np
 import yaml
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from checks import Checks  # noqa: E402
+
 
 def table(report, header):
     """The rows of the Markdown table whose header row starts with `header`, as cell lists."""
@@ -46,12 +49,7 @@ def log_rotation(R):
 
 def main(argv):
     simulate, offline, rig = argv[1:4]
-    failures = []
-
-    def check(ok, what):
-        print(("ok   " if ok else "FAIL ") + what)
-        if not ok:
-            failures.append(what)
+    check = Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([simulate, "--rig", rig, "--sim", os.path.join(rig, "sim.yaml"), "--output",
@@ -107,7 +105,7 @@ def main(argv):
                   "%s time offset held by --params" % cam)
         check("every camera's time offset: estimate_time_offsets false" in report,
               "the report says why the time offsets were held")
-    return 1 if failures else 0
+    return check.status()
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mvis/common/status.h"
+#include "mvis/estimator/calibration_status.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/residual_statistics.h"
 #include "mvis/rig/rig.h"
@@ -31,6 +32,11 @@ struct ReportInputs {
   std::vector<std::string> warnings;  // what went wrong in the data, by kind, with counts
   EstimatorCounters counters;
   double sigma_inflation = 1.0;
+  // Guided calibration: each quantity's status at the end and every change of status, with its
+  // time [s from the start of the data] (the rig's verdict among them).
+  std::vector<QuantityState> statuses;
+  std::vector<std::pair<double, QuantityState>> status_timeline;
+  std::vector<CameraCoverage> coverage;
 };
 
 // The page's Markdown.

@@ -76,8 +76,13 @@ class EstimateLog {
   void addChange(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
                  double size, double size_sigma);
 
-  // Writes calibration.csv, pose_covariance.csv and calibration_changes.csv into `dir` (which
-  // must exist).
+  // A quantity's status changed (calibration_status.csv: stamp, sensor, quantity, status, sigma
+  // and target in the quantity's unit, advice in words; calibration_status.h).
+  void addStatus(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
+                 const std::string& status, double sigma, double target, const std::string& advice);
+
+  // Writes calibration.csv, pose_covariance.csv, calibration_changes.csv and
+  // calibration_status.csv into `dir` (which must exist).
   Status write(const std::string& dir) const;
   // Writes the calibration rows alone to `path` (calibration.csv's columns).
   Status writeCalibration(const std::string& path) const;
@@ -109,6 +114,13 @@ class EstimateLog {
     double size, size_sigma;
   };
   std::vector<ChangeRow> changes_;
+  struct StatusRow {
+    TimeNs stamp_ns;
+    std::string sensor, quantity, status;
+    double sigma, target;
+    std::string advice;
+  };
+  std::vector<StatusRow> statuses_;
 };
 
 }  // namespace mvis

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "mvis/common/serial_worker.h"
+#include "mvis/estimator/calibration_status.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/estimator/odometry_propagator.h"
 #include "mvis/frontend/tag_frontend.h"
@@ -88,6 +89,11 @@ class MvisNodelet : public nodelet::Nodelet {
   void publishTags();
   // The node's name without the leading '/' ("mvis", "robot1/mvis"): the diagnostics' prefix.
   std::string diagnosticsName() const;
+  // Guided calibration (mvis_nodelet_status.cpp), with a new covariance: the statuses
+  // updated, logged for calibration_status.csv and published (~calibration_status, the rviz
+  // text ~status_markers, each camera's ~<camera>/coverage while subscribed).
+  void updateStatus(const EstimatorUpdate& u);
+  void publishStatus(const ros::Time& stamp);
   // The base IMU's frame in odometry, TF and the calibration message (~body_frame).
   std::string bodyFrame() const;
   // Writes a result directory: `dir`, or a new <result_dir>/<UTC time> when empty; refuses a
@@ -156,6 +162,9 @@ class MvisNodelet : public nodelet::Nodelet {
   EstimatorUpdate last_update_;
   bool have_update_ = false;
   TimeNs first_stamp_ns_ = 0;  // the first update's state (base clock), for the report
+  std::unique_ptr<CalibrationStatusTracker> status_;
+  // Every change of status, [s since first_stamp_ns_], for the report's timeline.
+  std::vector<std::pair<double, QuantityState>> status_timeline_;
   // Calibration after every solve and pose covariances, for results; thinned past 5,000 rows a
   // table (~3 and ~2 MB), so that a node left running stays flat.
   EstimateLog estimate_log_{5000};
@@ -170,8 +179,9 @@ class MvisNodelet : public nodelet::Nodelet {
   } in_;
   // What it publishes.
   struct Outputs {
-    ros::Publisher odometry, path, calibration, tags, diagnostics;
+    ros::Publisher odometry, path, calibration, tags, diagnostics, status, status_markers;
     std::vector<image_transport::Publisher> debug_images;  // per camera, lazy
+    std::vector<image_transport::Publisher> coverage;      // per camera, lazy
     std::unique_ptr<tf2_ros::TransformBroadcaster> tf;
     ros::WallTimer diagnostics_timer;
   } out_;

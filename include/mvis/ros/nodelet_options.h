@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mvis/common/status.h"
+#include "mvis/estimator/calibration_status.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/frontend/tag_frontend.h"
 
@@ -60,6 +61,9 @@ struct NodeletOptions {
   double imu_intrinsics_observability_ratio = 1.0;  // EstimatorOptions; 0: off
   double observability_horizon_s = 5.0;             // [s] motion the check looks back over
   int solver_threads = 1;                           // Ceres threads
+  // Guided calibration: the sigma at which each kind of quantity counts as converged (the
+  // ready_* keys).
+  StatusTargets ready;
   // Parent of the result directories: each save writes a new <result_dir>/<UTC time> (empty:
   // $ROS_HOME/mvis_results); on shutdown only with save_on_shutdown.
   std::string result_dir;
@@ -68,6 +72,7 @@ struct NodeletOptions {
   // The estimator's and the tag front end's options these parameters set (both runners).
   EstimatorOptions estimatorOptions() const;
   TagFrontendOptions frontendOptions() const;
+  StatusTargets statusTargets() const { return ready; }
 
   // Empty when the options are usable, else what is wrong, naming the parameter.
   std::string validate() const;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mvis/common/status.h"
+#include "mvis/estimator/calibration_status.h"
 #include "mvis/estimator/estimator.h"
 #include "mvis/frontend/tag_frontend.h"
 #include "mvis/rig/estimate_log.h"
@@ -34,6 +35,14 @@ struct OfflineOptions {
   std::vector<EstimatorState> batch_seed;
   int batch_iterations = 100;
   std::function<void(int iteration, double cost)> batch_progress;
+  // What counts as converged (calibration_status.h).
+  StatusTargets status_targets;
+};
+
+// A quantity's status changed, at `bag_s` [s of bag time].
+struct StatusEvent {
+  double bag_s = 0.0;
+  QuantityState state;
 };
 
 // One kind of problem met in the bag (the messages alike but for their numbers).
@@ -55,7 +64,12 @@ struct OfflineResult {
   std::vector<double> decode_ms;           // per compressed image (decoding)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
-  ResidualStatistics residuals;       // Estimator::residualStatistics at the end
+  ResidualStatistics residuals;  // Estimator::residualStatistics at the end
+  // Guided calibration (online pass): every status change in order, the statuses at the end,
+  // each camera's image coverage.
+  std::vector<StatusEvent> status_timeline;
+  std::vector<QuantityState> statuses;
+  std::vector<CameraCoverage> coverage;
   double sigma_inflation = 1.0;       // Estimator::sigmaInflation at the end
   double time_offset_floor = 0.0;     // Estimator::timeOffsetFloor at the end [s] (NaN: none)
   std::string status;                 // the estimator's last word

@@ -208,6 +208,54 @@ std::string renderReport(const ReportInputs& in) {
   for (const auto& u : in.unobservable) md << "- " << u << " (the motion could not tell it)\n";
   if (held.empty() && in.unobservable.empty()) md << "Nothing.\n";
 
+  if (!in.statuses.empty()) {
+    md << "\n## Status\n\n";
+    double ready_at = -1.0;
+    bool ready = false;
+    for (const auto& [t, s] : in.status_timeline) {
+      if (s.sensor != "rig") continue;
+      ready = s.ready;
+      if (ready) ready_at = t;
+    }
+    if (ready) {
+      md << "The rig became ready (every estimated quantity converged) at "
+         << format("%.1f", ready_at) << " s and stayed so.\n\n";
+    } else {
+      md << "The rig was not ready at the end: the quantities below marked improving or "
+            "unobservable need more data, the advice says what motion.\n\n";
+    }
+    md << "| sensor | quantity | status | sigma | target | advice |\n"
+          "| --- | --- | --- | --- | --- | --- |\n";
+    for (const QuantityState& s : in.statuses) {
+      const std::string unit = s.unit.empty() ? "" : " " + s.unit;
+      md << "| " << s.sensor << " | " << s.quantity << " | " << s.statusText() << " | "
+         << (std::isnan(s.sigma) ? "-" : format("%.3g", s.sigma) + unit) << " | "
+         << format("%.3g", s.target) << unit << " | " << s.advice << " |\n";
+    }
+    for (const CameraCoverage& c : in.coverage) {
+      md << "\n"
+         << c.camera << "'s image coverage (corners per cell, " << c.columns << " x " << c.rows
+         << " cells; " << format("%.0f", 100.0 * c.share()) << "% covered"
+         << (c.missing().empty() ? "" : "; missing: " + c.missing()) << "):\n\n```\n";
+      for (int r = 0; r < c.rows; ++r) {
+        for (int k = 0; k < c.columns; ++k) {
+          md << format("%6.0f", c.corners[static_cast<std::size_t>(r * c.columns + k)]);
+        }
+        md << "\n";
+      }
+      md << "```\n";
+    }
+    md << "\nTimeline (every change of status; the full table in "
+          "[calibration_status.csv](calibration_status.csv)):\n\n";
+    int lines = 0;
+    for (const auto& [t, s] : in.status_timeline) {
+      if (s.sensor != "rig" && ++lines > 40) continue;
+      md << "- " << format("%.1f", t) << " s: " << s.sensor << " " << s.quantity << " "
+         << s.statusText() << (s.advice.empty() ? "" : " (" + s.advice + ")") << "\n";
+    }
+    if (lines > 40) md << "- ... " << lines - 40 << " more in calibration_status.csv\n";
+  }
+
   md << "\n## Changes of a sensor's calibration\n\n";
   if (in.changes.empty()) md << "None declared.\n";
   for (std::size_t i = 0; i < in.changes.size(); ++i) {

@@ -152,7 +152,27 @@ Status EstimateLog::write(const std::string& dir) const {
     std::fputc('\n', file);
   }
   if (std::fclose(file) != 0) return Status::Error(changes_path + ": cannot write");
+  const std::string status_path = dir + "/calibration_status.csv";
+  file = std::fopen(status_path.c_str(), "w");
+  if (!file) return Status::Error(status_path + ": cannot write");
+  std::fputs("stamp,sensor,quantity,status,sigma,target,advice\n", file);
+  for (const StatusRow& row : statuses_) {
+    writeStamp(file, row.stamp_ns);
+    std::fprintf(file, ",%s,%s,%s", row.sensor.c_str(), row.quantity.c_str(), row.status.c_str());
+    writeNumber(file, row.sigma);
+    writeNumber(file, row.target);
+    std::string quoted = "\"";  // CSV: in quotes, a quote doubled
+    for (char ch : row.advice) quoted += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+    std::fprintf(file, ",%s\"\n", quoted.c_str());
+  }
+  if (std::fclose(file) != 0) return Status::Error(status_path + ": cannot write");
   return Status::Ok();
+}
+
+void EstimateLog::addStatus(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
+                            const std::string& status, double sigma, double target,
+                            const std::string& advice) {
+  statuses_.push_back({stamp_ns, sensor, quantity, status, sigma, target, advice});
 }
 
 void EstimateLog::addChange(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
