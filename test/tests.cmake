@@ -177,6 +177,10 @@ add_test(NAME report_md
 add_test(NAME guided_calibration
   COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/test/guided/check_guided.py
     $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_vi_rig)
+# The same bytes out whatever the number of image threads.
+add_test(NAME offline_image_threads
+  COMMAND ${PROJECT_SOURCE_DIR}/test/tools/offline_threads_same.sh
+    $<TARGET_FILE:mvis_simulate> $<TARGET_FILE:mvis_offline> ${PROJECT_SOURCE_DIR}/config/sim_small_rig)
 # mvis_offline --params with an unknown key: refused at start (exit 2), naming the file and key.
 add_test(NAME offline_params_refused
   COMMAND ${PROJECT_SOURCE_DIR}/test/tools/offline_params_refused.sh $<TARGET_FILE:mvis_offline>)

@@ -9,8 +9,15 @@
 
 #include <cctype>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
 #include <map>
+#include <mutex>
+#include <optional>
 #include <set>
+#include <thread>
 
 #include "mvis/ros/conversions.h"
 
@@ -21,6 +28,101 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// An image message to detect tags in, off the thread that reads the bag.
+struct ImageJob {
+  std::size_t camera = 0;
+  sensor_msgs::ImageConstPtr raw;               // or
+  sensor_msgs::CompressedImageConstPtr packed;  // decoded by the job
+};
+
+// What the job found, handed to the estimator in bag order.
+struct ImageOutcome {
+  std::size_t camera = 0;
+  bool raw = true;
+  TimeNs stamp = 0;
+  std::string dropped;      // why the message could not be used ("" if it could)
+  double decode_ms = -1.0;  // compressed images
+  double frontend_ms = 0.0;
+  std::optional<StatusOr<TagFrontendResult>> tags;
+};
+
+// A fixed set of threads running image jobs; one camera's jobs take its lock, so that its
+// detector sees one image at a time (the front end's rule).
+class ImageWorkers {
+ public:
+  explicit ImageWorkers(int threads) {
+    for (int i = 0; i < threads; ++i) {
+      threads_.emplace_back([this] {
+        for (;;) {
+          std::packaged_task<ImageOutcome()> task;
+          {
+            std::unique_lock<std::mutex> lock(mutex_);
+            wake_.wait(lock, [this] { return stop_ || !tasks_.empty(); });
+            if (tasks_.empty()) return;
+            task = std::move(tasks_.front());
+            tasks_.pop_front();
+          }
+          task();
+        }
+      });
+    }
+  }
+  ~ImageWorkers() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    for (auto& t : threads_) t.join();
+  }
+  std::future<ImageOutcome> submit(std::function<ImageOutcome()> job) {
+    std::packaged_task<ImageOutcome()> task(std::move(job));
+    auto future = task.get_future();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      tasks_.push_back(std::move(task));
+    }
+    wake_.notify_one();
+    return future;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::packaged_task<ImageOutcome()>> tasks_;
+  bool stop_ = false;
+  std::vector<std::thread> threads_;
+};
+
+ImageOutcome detectImage(const ImageJob& job, TagFrontend* frontend, std::mutex* camera_lock) {
+  ImageOutcome out;
+  out.camera = job.camera;
+  out.raw = job.raw != nullptr;
+  cv::Mat gray;  // may share the raw message's pixels (the job holds the message)
+  std::string why;
+  if (!out.raw) {
+    const auto t0 = Clock::now();
+    const bool decoded = ros_conversions::toGray(*job.packed, &gray, &why);
+    out.decode_ms = msSince(t0);
+    if (!decoded) {
+      out.dropped = "dropped " + why;
+      return out;
+    }
+    out.stamp = ros_conversions::toTimeNs(job.packed->header.stamp);
+  } else {
+    if (!ros_conversions::toGray(job.raw, &gray, &why)) {
+      out.dropped = "dropped " + why;
+      return out;
+    }
+    out.stamp = ros_conversions::toTimeNs(job.raw->header.stamp);
+  }
+  std::lock_guard<std::mutex> lock(*camera_lock);
+  const auto t0 = Clock::now();
+  out.tags = frontend->processImage(job.camera, out.stamp, gray);
+  out.frontend_ms = msSince(t0);
+  return out;
 }
 
 // The bag's topics by message type.
@@ -164,6 +266,76 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     if (added) result.warning_kinds.push_back({message, 0, bag_time});
     ++result.warning_kinds[it->second].count;
   };
+  // Images are detected on `image_threads` workers while the bag is read; everything reaches the
+  // estimator in bag order, whatever the thread count (the same bytes out).
+  struct Pending {
+    double bag_time = 0.0;
+    bool is_image = false;
+    std::function<void()> now;        // an IMU reading or a detection message
+    std::future<ImageOutcome> image;  // an image's tags
+  };
+  std::deque<Pending> pending;
+  std::vector<std::mutex> camera_locks(initial.cameras.size());
+  int image_threads = options.image_threads > 0
+                          ? options.image_threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::optional<ImageWorkers> workers;
+  if (image_threads > 1) workers.emplace(image_threads);
+  const std::size_t max_in_flight = 4 * static_cast<std::size_t>(image_threads);
+  std::size_t images_in_flight = 0;
+  const auto consume = [&](ImageOutcome o) {
+    const std::string& name = initial.cameras[o.camera].name;
+    if (o.decode_ms >= 0.0) result.decode_ms.push_back(o.decode_ms);
+    if (!o.dropped.empty()) {
+      if (o.raw) ++result.image_messages;
+      ++result.dropped_messages;
+      note(name + ": " + o.dropped);
+      return;
+    }
+    ++result.image_messages;
+    ++camera_count[o.camera];
+    result.frontend_ms.push_back(o.frontend_ms);
+    if (!o.tags->ok()) {
+      ++result.dropped_messages;
+      note(name + ": dropped: " + o.tags->status().message());
+      return;
+    }
+    frontend->dropBefore(o.camera, o.stamp - kNsPerSecond);
+    const Status status = estimator->addTagFrame(o.tags->value().frame);
+    if (!status.ok()) note(status.message());
+    if (status.ok()) tracker.addFrame(o.tags->value().frame);
+  };
+  // Hands the estimator what is ready at the front; `all`: everything, waiting for the images.
+  const auto drain = [&](bool all) {
+    while (!pending.empty()) {
+      Pending& p = pending.front();
+      if (p.is_image) {
+        const bool ready = p.image.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+        if (!ready && !all && images_in_flight < max_in_flight) return;
+        const double reading = bag_time;
+        bag_time = p.bag_time;
+        consume(p.image.get());
+        bag_time = reading;
+        --images_in_flight;
+      } else {
+        const double reading = bag_time;
+        bag_time = p.bag_time;
+        p.now();
+        bag_time = reading;
+      }
+      pending.pop_front();
+    }
+  };
+  const auto defer = [&](std::function<void()> call) {
+    if (pending.empty()) {
+      call();
+      return;
+    }
+    Pending p;
+    p.bag_time = bag_time;
+    p.now = std::move(call);
+    pending.push_back(std::move(p));
+  };
   const auto start = Clock::now();
   try {
     rosbag::View view(bag, rosbag::TopicQuery(topics));
@@ -193,71 +365,59 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
           note(initial.inertial[it->second].name + ": dropped " + why);
           continue;
         }
-        const Status status = estimator->addImu(it->second, reading);
-        if (!status.ok()) note(status.message());
+        const std::size_t sensor = it->second;
+        defer([&, sensor, reading] {
+          const Status status = estimator->addImu(sensor, reading);
+          if (!status.ok()) note(status.message());
+        });
       } else if (image_topics.count(topic) || compressed_topics.count(topic)) {
         const bool compressed = compressed_topics.count(topic) > 0;
-        const std::size_t camera = compressed ? compressed_topics[topic] : image_topics[topic];
-        // gray may share the raw message's pixels: the message stays alive as long as it.
-        sensor_msgs::ImageConstPtr raw_msg;
-        cv::Mat gray;
-        std::string why;
-        TimeNs stamp = 0;
+        ImageJob job;
+        job.camera = compressed ? compressed_topics[topic] : image_topics[topic];
         if (compressed) {
-          const auto msg = m.instantiate<sensor_msgs::CompressedImage>();
-          if (!msg) continue;
-          const auto t0 = Clock::now();
-          const bool decoded = ros_conversions::toGray(*msg, &gray, &why);
-          result.decode_ms.push_back(msSince(t0));
-          if (!decoded) {
-            ++result.dropped_messages;
-            note(initial.cameras[camera].name + ": dropped " + why);
-            continue;
-          }
-          stamp = ros_conversions::toTimeNs(msg->header.stamp);
+          job.packed = m.instantiate<sensor_msgs::CompressedImage>();
+          if (!job.packed) continue;
         } else {
-          raw_msg = m.instantiate<sensor_msgs::Image>();
-          if (!raw_msg) continue;
-          if (!ros_conversions::toGray(raw_msg, &gray, &why)) {
-            ++result.image_messages;
-            ++result.dropped_messages;
-            note(initial.cameras[camera].name + ": dropped " + why);
-            continue;
-          }
-          stamp = ros_conversions::toTimeNs(raw_msg->header.stamp);
+          job.raw = m.instantiate<sensor_msgs::Image>();
+          if (!job.raw) continue;
         }
-        ++result.image_messages;
-        ++camera_count[camera];
-        const auto t0 = Clock::now();
-        auto tags = frontend->processImage(camera, stamp, gray);
-        result.frontend_ms.push_back(msSince(t0));
-        if (!tags.ok()) {
-          ++result.dropped_messages;
-          note(initial.cameras[camera].name + ": dropped: " + tags.status().message());
-          continue;
+        std::mutex* lock = &camera_locks[job.camera];
+        TagFrontend* f = frontend.get();
+        Pending p;
+        p.bag_time = bag_time;
+        if (workers) {
+          p.image = workers->submit([job, f, lock] { return detectImage(job, f, lock); });
+        } else {
+          std::promise<ImageOutcome> done;
+          done.set_value(detectImage(job, f, lock));
+          p.image = done.get_future();
         }
-        frontend->dropBefore(camera, stamp - kNsPerSecond);
-        const Status status = estimator->addTagFrame(tags.value().frame);
-        if (!status.ok()) note(status.message());
-        if (status.ok()) tracker.addFrame(tags.value().frame);
+        p.is_image = true;
+        ++images_in_flight;
+        pending.push_back(std::move(p));
+        drain(false);
       } else if (auto id = detection_topics.find(topic); id != detection_topics.end()) {
         const auto msg = m.instantiate<mvis::TagDetectionArray>();
         if (!msg) continue;
         ++result.detection_messages;
         ++camera_count[id->second];
-        auto tags = frontend->processDetections(ros_conversions::toTagFrame(*msg, id->second));
-        if (!tags.ok()) {
-          ++result.dropped_messages;
-          note(initial.cameras[id->second].name + ": dropped: " + tags.status().message());
-          continue;
-        }
-        const TimeNs stamp = ros_conversions::toTimeNs(msg->header.stamp);
-        frontend->dropBefore(id->second, stamp - kNsPerSecond);
-        const Status status = estimator->addTagFrame(tags.value().frame);
-        if (!status.ok()) note(status.message());
-        if (status.ok()) tracker.addFrame(tags.value().frame);
+        const std::size_t camera = id->second;
+        defer([&, msg, camera] {
+          auto tags = frontend->processDetections(ros_conversions::toTagFrame(*msg, camera));
+          if (!tags.ok()) {
+            ++result.dropped_messages;
+            note(initial.cameras[camera].name + ": dropped: " + tags.status().message());
+            return;
+          }
+          const TimeNs stamp = ros_conversions::toTimeNs(msg->header.stamp);
+          frontend->dropBefore(camera, stamp - kNsPerSecond);
+          const Status status = estimator->addTagFrame(tags.value().frame);
+          if (!status.ok()) note(status.message());
+          if (status.ok()) tracker.addFrame(tags.value().frame);
+        });
       }
     }
+    drain(true);
     result.bag_seconds = end - begin;
   } catch (const std::exception& e) {
     return Status::Error(bag_path + ": reading the bag failed: " + e.what());

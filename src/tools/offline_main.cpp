@@ -115,6 +115,11 @@ int main(int argc, char** argv) {
     }
     if (arg == "--params") {
       ++i;  // read before the loop
+    } else if (arg == "--image-threads") {
+      std::string v;
+      if (!value(&v) || std::atoi(v.c_str()) < 1)
+        return usage("--image-threads takes a count >= 1");
+      options.image_threads = std::atoi(v.c_str());
     } else if (arg == "--tag-decimate") {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 1.0)) return usage("--tag-decimate takes >= 1");

@@ -12,7 +12,7 @@ namespace mvis_offline {
 void printUsage(std::FILE* out) {
   std::fprintf(out,
                "usage: mvis_offline --config DIR --bag FILE --output DIR [--params FILE]\n"
-               "                    [--truth DIR] [--tag-decimate D]\n"
+               "                    [--truth DIR] [--tag-decimate D] [--image-threads N]\n"
                "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
@@ -44,6 +44,8 @@ void printUsage(std::FILE* out) {
                "  --output DIR     where the calibration and trajectory.tum go\n"
                "  --truth DIR      a simulation's truth/: print errors and the ATE\n"
                "  --tag-decimate D tags searched at 1/D resolution (>= 1)\n"
+               "  --image-threads N  threads detecting tags in images while the bag is read\n"
+               "                   (default: one per core; the result does not depend on it)\n"
                "  --interpolation  frame poses from the IMU (default) or the report's\n"
                "                   kinematic/pose-based interpolation\n"
                "  --pixel-sigma PX corner noise (default 1)\n"

@@ -26,6 +26,9 @@ namespace mvis {
 struct OfflineOptions {
   EstimatorOptions estimator;
   TagFrontendOptions frontend;
+  // Threads detecting tags in images while the bag is read (0: one per core of the machine);
+  // the result does not depend on it.
+  int image_threads = 0;
   // Called now and then with the share of the bag done [0, 1] and the bag time covered [s].
   std::function<void(double share, double bag_seconds)> progress;
   // Batch (estimator.batch, mvis_offline --batch): the calibration the states start from and
