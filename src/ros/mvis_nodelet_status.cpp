@@ -64,6 +64,9 @@ void MvisNodelet::updateStatus(const EstimatorUpdate& u) {
                             s.target, s.advice);
     status_timeline_.emplace_back(since, s);
   }
+  if (status_timeline_.size() > 5000) {  // a node left running: the newest for the report
+    status_timeline_.erase(status_timeline_.begin(), status_timeline_.begin() + 500);
+  }
   if (status_->ready() != was_ready) {
     if (status_->ready()) {
       NODELET_INFO_STREAM(getName() << ": the rig is ready: every estimated quantity converged ("

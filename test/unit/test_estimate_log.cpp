@@ -176,5 +176,26 @@ TEST(EstimateLog, KeepsEveryOtherSolvePastItsLimit) {
   }
 }
 
+TEST(EstimateLog, StatusRowsQuotedAndBounded) {
+  EstimateLog log(10);
+  for (int k = 0; k < 25; ++k) {
+    log.addStatus(k * kNsPerSecond, "cam0", "rotation", k % 2 ? "converged" : "improving", 0.5,
+                  0.016, k % 2 ? "" : "rotate about imu0's y and z axes, say \"briskly\"");
+  }
+  const std::string dir = ::testing::TempDir() + "/mvis_estimate_log_status";
+  std::filesystem::create_directories(dir);
+  ASSERT_TRUE(log.write(dir).ok());
+  std::ifstream in(dir + "/calibration_status.csv");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  ASSERT_GE(lines.size(), 2u);
+  EXPECT_EQ(lines[0], "stamp,sensor,quantity,status,sigma,target,advice");
+  // At most 10 rows kept, the newest last.
+  EXPECT_LE(lines.size(), 11u);
+  EXPECT_EQ(lines.back(),
+            "24.000000000,cam0,rotation,improving,0.5,0.016,"
+            "\"rotate about imu0's y and z axes, say \"\"briskly\"\"\"");
+}
+
 }  // namespace
 }  // namespace mvis

@@ -172,6 +172,11 @@ Status EstimateLog::write(const std::string& dir) const {
 void EstimateLog::addStatus(TimeNs stamp_ns, const std::string& sensor, const std::string& quantity,
                             const std::string& status, double sigma, double target,
                             const std::string& advice) {
+  // A node left running keeps the newest rows (a tenth of them dropped at the bound).
+  if (statuses_.size() >= max_rows_) {
+    statuses_.erase(statuses_.begin(),
+                    statuses_.begin() + static_cast<std::ptrdiff_t>(max_rows_ / 10 + 1));
+  }
   statuses_.push_back({stamp_ns, sensor, quantity, status, sigma, target, advice});
 }
 
