@@ -150,7 +150,7 @@ TEST(Estimator, CalibratesKalibrModelImuIntrinsics) {
   // uncertainty of the gyroscope's rotation against the accelerometer, which the motion tells
   // less well than the cameras' against the gyroscope. Measured (seed 7, 30 s): every camera
   // 0.080 deg off at 3.1 sigma (with every IMU's intrinsics free the cameras' rotations are
-  // slightly overconfident, as in the rpng case: README's known issues), imu0's R_IMUtoGYRO
+  // slightly overconfident, as in the rpng case: doc/known_issues.md), imu0's R_IMUtoGYRO
   // 0.076 deg; the cameras' rotations relative to cam0 within 0.002 deg. Bounds: 3.5 sigma (the
   // largest of three axes' 99% quantile), 0.15 deg, relative 0.02 deg.
   const Eigen::Matrix3d R_0 = r.estimate.cameras[0].T_cam_imu.rotation(),
