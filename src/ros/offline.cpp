@@ -362,7 +362,8 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
         const bool gyro_only = initial.inertial[it->second].type == InertialType::kGyroscope;
         if (!ros_conversions::toImuMeasurement(*msg, gyro_only, &reading, &why)) {
           ++result.dropped_messages;
-          note(initial.inertial[it->second].name + ": dropped " + why);
+          // In bag order with everything else said (images may still be pending).
+          defer([&, text = initial.inertial[it->second].name + ": dropped " + why] { note(text); });
           continue;
         }
         const std::size_t sensor = it->second;
