@@ -33,7 +33,7 @@ sensor_msgs::Image coverageImage(const CameraCoverage& c, const ros::Time& stamp
   for (int r = 0; r < c.rows; ++r) {
     for (int k = 0; k < c.columns; ++k) {
       const int n = c.corners[static_cast<std::size_t>(r * c.columns + k)];
-      std::uint8_t b = 0, g = 0, red = 0;
+      std::uint8_t g = 0, red = 0;
       if (c.covered(k, r)) {
         g = static_cast<std::uint8_t>(90 + 165 * std::log1p(n) / std::log1p(most));
       } else {
@@ -43,7 +43,7 @@ sensor_msgs::Image coverageImage(const CameraCoverage& c, const ros::Time& stamp
         for (int x = k * kCell; x < (k + 1) * kCell; ++x) {
           const bool line = x % kCell == 0 || y % kCell == 0;
           std::uint8_t* px = &image.data[static_cast<std::size_t>(y) * image.step + 3 * x];
-          px[0] = line ? 128 : b;
+          px[0] = line ? 128 : 0;
           px[1] = line ? 128 : g;
           px[2] = line ? 128 : red;
         }

@@ -226,10 +226,17 @@ std::string NodeletOptions::validate() const {
            "with at least three later states before it is marginalized)";
   }
   if (solver_threads < 1) return "parameter ~solver_threads must be >= 1";
-  for (const auto& [key, value] : values()) {
-    if (key.rfind("ready_", 0) == 0 && !(std::stod(value) > 0.0)) {
-      return "parameter ~" + key + " must be positive";
-    }
+  const std::pair<const char*, double> targets[] = {
+      {"ready_rotation_deg", ready.rotation_deg},
+      {"ready_camera_translation_mm", ready.camera_translation_mm},
+      {"ready_imu_translation_mm", ready.imu_translation_mm},
+      {"ready_time_offset_ms", ready.time_offset_ms},
+      {"ready_camera_intrinsics_px", ready.camera_intrinsics_px},
+      {"ready_camera_distortion", ready.camera_distortion},
+      {"ready_imu_intrinsics", ready.imu_intrinsics},
+      {"ready_gravity_sensitivity", ready.gravity_sensitivity}};
+  for (const auto& [key, value] : targets) {
+    if (!(value > 0.0)) return "parameter ~" + std::string(key) + " must be positive";
   }
   return "";
 }

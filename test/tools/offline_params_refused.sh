@@ -14,4 +14,5 @@ check() {  # FILE_CONTENT EXPECTED_MESSAGE
 }
 check 'estimate_intrinsic: true' "unknown parameter 'estimate_intrinsic'"
 check 'min_tags: 0' "parameter ~min_tags must be >= 1"
+check 'ready_rotation_deg: 0' "parameter ~ready_rotation_deg must be positive"
 echo "refused as expected"

@@ -33,7 +33,6 @@ struct SensorResidualStatistics {
 
 struct ResidualStatistics {
   std::vector<SensorResidualStatistics> sensors;  // cameras, then the inertial sensors
-  void add(const ResidualStatistics& other);      // same sensors, summed
 };
 
 }  // namespace mvis

@@ -37,7 +37,6 @@ constexpr TimeNs kPoseCovarianceSpacingNs = kNsPerSecond;
 // one second; on the simulator's white corners the sigmas stay 1.01-1.17x the model's for the
 // cameras either way: doc/results.md).
 constexpr TimeNs kClusterSpanNs = kNsPerSecond;
-// Worst states named per sensor in a batch's residual summary.
 
 class ProgressCallback : public ceres::IterationCallback {
  public:

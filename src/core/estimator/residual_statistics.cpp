@@ -33,24 +33,4 @@ double SensorResidualStatistics::chiSquarePerResidual() const {
   return residuals > 0 ? chi_square / static_cast<double>(residuals) : 0.0;
 }
 
-void ResidualStatistics::add(const ResidualStatistics& other) {
-  if (sensors.empty()) {
-    *this = other;
-    return;
-  }
-  for (std::size_t k = 0; k < sensors.size() && k < other.sensors.size(); ++k) {
-    SensorResidualStatistics& a = sensors[k];
-    const SensorResidualStatistics& b = other.sensors[k];
-    a.factors += b.factors;
-    a.residuals += b.residuals;
-    a.chi_square += b.chi_square;
-    a.corners += b.corners;
-    a.corner_sum_sq += b.corner_sum_sq;
-    a.corner_max = std::max(a.corner_max, b.corner_max);
-    for (std::size_t i = 0; i < a.corner_histogram.size(); ++i) {
-      a.corner_histogram[i] += b.corner_histogram[i];
-    }
-  }
-}
-
 }  // namespace mvis
