@@ -9,28 +9,41 @@
 namespace mvis {
 namespace {
 
-// The darkest and brightest values around every tile of the image.
+// The darkest and brightest values around every tile of a region of the image.
 struct LocalLevels {
   int tile = 8;
-  cv::Mat lo, hi;  // per tile, over its 5 x 5 tile neighbourhood
+  int tx0 = 0, ty0 = 0;  // the first tile of lo and hi
+  cv::Mat lo, hi;        // per tile, over its 5 x 5 tile neighbourhood
+  int lo_at(int ty, int tx) const { return lo.at<std::uint8_t>(ty - ty0, tx - tx0); }
+  int hi_at(int ty, int tx) const { return hi.at<std::uint8_t>(ty - ty0, tx - tx0); }
 };
 
-LocalLevels localLevels(const cv::Mat& gray) {
+// The tile size depends on the whole image only, so that a region's levels are the whole
+// image's there.
+int tileSize(const cv::Mat& gray) { return std::min(gray.cols, gray.rows) >= 400 ? 8 : 4; }
+
+// Levels for the tiles that `region` touches. They are computed over two more tiles all round
+// (the neighbourhood's reach), so that they equal the whole image's.
+LocalLevels localLevels(const cv::Mat& gray, const cv::Rect& region) {
   LocalLevels levels;
-  const int tile = levels.tile = std::min(gray.cols, gray.rows) >= 400 ? 8 : 4;
-  const int tiles_y = (gray.rows + tile - 1) / tile;
-  const int tiles_x = (gray.cols + tile - 1) / tile;
+  const int tile = levels.tile = tileSize(gray);
+  const int image_tiles_x = (gray.cols + tile - 1) / tile;
+  const int image_tiles_y = (gray.rows + tile - 1) / tile;
+  const int tx0 = std::max(0, region.x / tile - 2), ty0 = std::max(0, region.y / tile - 2);
+  const int tx1 = std::min(image_tiles_x, (region.x + region.width - 1) / tile + 3);
+  const int ty1 = std::min(image_tiles_y, (region.y + region.height - 1) / tile + 3);
+  const int tiles_x = tx1 - tx0, tiles_y = ty1 - ty0;
   cv::Mat lo(tiles_y, tiles_x, CV_8UC1), hi(tiles_y, tiles_x, CV_8UC1);
   for (int ty = 0; ty < tiles_y; ++ty) {
     auto* lo_row = lo.ptr<std::uint8_t>(ty);
     auto* hi_row = hi.ptr<std::uint8_t>(ty);
     std::fill(lo_row, lo_row + tiles_x, 255);
     std::fill(hi_row, hi_row + tiles_x, 0);
-    for (int r = ty * tile; r < std::min(gray.rows, (ty + 1) * tile); ++r) {
+    for (int r = (ty0 + ty) * tile; r < std::min(gray.rows, (ty0 + ty + 1) * tile); ++r) {
       const auto* row = gray.ptr<std::uint8_t>(r);
       for (int tx = 0; tx < tiles_x; ++tx) {
         std::uint8_t lo_value = lo_row[tx], hi_value = hi_row[tx];
-        for (int c = tx * tile; c < std::min(gray.cols, (tx + 1) * tile); ++c) {
+        for (int c = (tx0 + tx) * tile; c < std::min(gray.cols, (tx0 + tx + 1) * tile); ++c) {
           lo_value = std::min(lo_value, row[c]);
           hi_value = std::max(hi_value, row[c]);
         }
@@ -42,35 +55,88 @@ LocalLevels localLevels(const cv::Mat& gray) {
   const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5));
   cv::erode(lo, levels.lo, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
   cv::dilate(hi, levels.hi, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  levels.tx0 = tx0;
+  levels.ty0 = ty0;
   return levels;
 }
 
-// 255 where a pixel of `roi` is black by the rule in the header with `margin`, 0 elsewhere.
-cv::Mat blackMask(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi,
-                  double margin, double min_contrast) {
+// A horizontal run of black pixels [c0, c1) in row `row` (image coordinates).
+struct Run {
+  int row, c0, c1;
+};
+
+// The runs of black pixels of `roi` by the rule in the header with `margin`, row by row, left to
+// right; row_start[r] is the first run of the region's row r (row_start has height + 1 entries).
+void blackRuns(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi, double margin,
+               double min_contrast, std::vector<Run>* runs, std::vector<int>* row_start) {
   const int tile = levels.tile;
-  const int tiles_x = levels.lo.cols;
-  // Per tile: the level below which a pixel is black (-1: none, too little contrast).
-  std::vector<int> below(static_cast<std::size_t>(tiles_x) * levels.lo.rows);
-  for (int ty = roi.y / tile; ty <= (roi.y + roi.height - 1) / tile; ++ty) {
-    for (int tx = roi.x / tile; tx <= (roi.x + roi.width - 1) / tile; ++tx) {
-      const double a = levels.lo.at<std::uint8_t>(ty, tx), b = levels.hi.at<std::uint8_t>(ty, tx);
+  const int tx0 = roi.x / tile, ty0 = roi.y / tile;
+  const int tiles_x = (roi.x + roi.width - 1) / tile - tx0 + 1;
+  const int tiles_y = (roi.y + roi.height - 1) / tile - ty0 + 1;
+  // Per tile of the region: the level below which a pixel is black (-1: none, too little
+  // contrast).
+  std::vector<int> below(static_cast<std::size_t>(tiles_x) * tiles_y);
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      const double a = levels.lo_at(ty0 + ty, tx0 + tx), b = levels.hi_at(ty0 + ty, tx0 + tx);
       below[ty * tiles_x + tx] =
           b - a < min_contrast ? -1 : static_cast<int>(std::ceil(0.5 * (a + b) - margin * (b - a)));
     }
   }
-  cv::Mat mask(roi.size(), CV_8UC1);
+  runs->clear();
+  row_start->assign(roi.height + 1, 0);
   for (int r = 0; r < roi.height; ++r) {
+    (*row_start)[r] = static_cast<int>(runs->size());
     const auto* row = gray.ptr<std::uint8_t>(roi.y + r);
-    auto* out = mask.ptr<std::uint8_t>(r) - roi.x;
-    const int* level = &below[((roi.y + r) / tile) * tiles_x];
-    for (int tx = roi.x / tile; tx <= (roi.x + roi.width - 1) / tile; ++tx) {
-      const int threshold = level[tx];
+    const int* level = &below[((roi.y + r) / tile - ty0) * tiles_x];
+    int open = -1;  // the start of the run being read
+    for (int tx = tx0; tx < tx0 + tiles_x; ++tx) {
+      const int threshold = level[tx - tx0];
+      const int begin = std::max(roi.x, tx * tile);
       const int end = std::min(roi.x + roi.width, (tx + 1) * tile);
-      for (int c = std::max(roi.x, tx * tile); c < end; ++c) out[c] = row[c] < threshold ? 255 : 0;
+      if (threshold < 0) {  // nothing black in this tile
+        if (open >= 0) runs->push_back({roi.y + r, open, begin}), open = -1;
+        continue;
+      }
+      for (int c = begin; c < end; ++c) {
+        const bool black = row[c] < threshold;
+        if (black && open < 0) open = c;
+        if (!black && open >= 0) runs->push_back({roi.y + r, open, c}), open = -1;
+      }
+    }
+    if (open >= 0) runs->push_back({roi.y + r, open, roi.x + roi.width});
+  }
+  (*row_start)[roi.height] = static_cast<int>(runs->size());
+}
+
+// 4-connected components of runs (runs of adjacent rows that share a column), numbered in the
+// order of their first pixel in a raster scan; per run, its component.
+int runComponents(const std::vector<Run>& runs, const std::vector<int>& row_start,
+                  std::vector<int>* component) {
+  std::vector<int> parent(runs.size());
+  for (std::size_t i = 0; i < runs.size(); ++i) parent[i] = static_cast<int>(i);
+  const auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t r = 1; r + 1 < row_start.size(); ++r) {
+    int j = row_start[r - 1];
+    const int j_end = row_start[r];
+    for (int i = row_start[r]; i < row_start[r + 1]; ++i) {
+      while (j < j_end && runs[j].c1 <= runs[i].c0) ++j;
+      for (int k = j; k < j_end && runs[k].c0 < runs[i].c1; ++k) {
+        const int a = find(i), b = find(k);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the earlier run is the root
+      }
     }
   }
-  return mask;
+  component->assign(runs.size(), -1);
+  int count = 0;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const int root = find(static_cast<int>(i));
+    (*component)[i] = root == static_cast<int>(i) ? count++ : (*component)[root];
+  }
+  return count;
 }
 
 double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -187,39 +253,88 @@ std::optional<Quad> quadOfContour(const std::vector<cv::Point>& contour, int are
   return quad;
 }
 
+// Keeps the runs (and the parts of runs) that lie inside `within` (row by row, left to right).
+void keepWithin(const std::vector<Run>& within, std::vector<Run>* runs, std::vector<int>* row_start,
+                int first_row) {
+  std::vector<Run> kept;
+  std::vector<int> starts(row_start->size(), 0);
+  std::size_t w = 0;
+  for (std::size_t r = 0; r + 1 < row_start->size(); ++r) {
+    starts[r] = static_cast<int>(kept.size());
+    const int row = first_row + static_cast<int>(r);
+    while (w < within.size() && within[w].row < row) ++w;
+    for (int i = (*row_start)[r]; i < (*row_start)[r + 1]; ++i) {
+      for (std::size_t k = w; k < within.size() && within[k].row == row; ++k) {
+        const int c0 = std::max((*runs)[i].c0, within[k].c0);
+        const int c1 = std::min((*runs)[i].c1, within[k].c1);
+        if (c0 < c1) kept.push_back({row, c0, c1});
+      }
+    }
+  }
+  starts.back() = static_cast<int>(kept.size());
+  *runs = std::move(kept);
+  *row_start = std::move(starts);
+}
+
 // Quads of the black components in `roi`; a component too big and shaped too badly to be one
 // tag (tags joined through a junction pixel, e.g. where an edge and noise meet) is looked at
-// again with a larger margin, up to twice.
+// again with a larger margin, up to twice: its own pixels only (`within`), so that what is found
+// depends on the component alone, not on the others its box overlaps.
 void quadsIn(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi, double margin,
-             int retries, const QuadFinderOptions& options, std::vector<Quad>* quads) {
-  const cv::Mat mask = blackMask(gray, levels, roi, margin, options.min_contrast);
-  cv::Mat labels, stats, centroids;
-  const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 4, CV_32S);
-  cv::Mat component;
+             int retries, const QuadFinderOptions& options, std::vector<Quad>* quads,
+             const std::vector<Run>* within = nullptr) {
+  std::vector<Run> runs;
+  std::vector<int> row_start, component;
+  blackRuns(gray, levels, roi, margin, options.min_contrast, &runs, &row_start);
+  if (within) keepWithin(*within, &runs, &row_start, roi.y);
+  const int count = runComponents(runs, row_start, &component);
+  // Per component: its box (image coordinates, inclusive), its area and its runs.
+  struct Box {
+    int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, area = 0;
+    std::vector<int> runs;
+  };
+  std::vector<Box> boxes(count);
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    Box& box = boxes[component[i]];
+    const Run& run = runs[i];
+    box.x0 = std::min(box.x0, run.c0), box.x1 = std::max(box.x1, run.c1 - 1);
+    box.y0 = std::min(box.y0, run.row), box.y1 = std::max(box.y1, run.row);
+    box.area += run.c1 - run.c0;
+    box.runs.push_back(static_cast<int>(i));
+  }
+  cv::Mat mask;
   std::vector<std::vector<cv::Point>> contours;
-  for (int k = 1; k < count; ++k) {
-    const int x = stats.at<int>(k, cv::CC_STAT_LEFT), y = stats.at<int>(k, cv::CC_STAT_TOP);
-    const int w = stats.at<int>(k, cv::CC_STAT_WIDTH), h = stats.at<int>(k, cv::CC_STAT_HEIGHT);
-    const int area = stats.at<int>(k, cv::CC_STAT_AREA);
+  for (const Box& b : boxes) {
+    // In the region's coordinates, as the checks below were written.
+    const int x = b.x0 - roi.x, y = b.y0 - roi.y, w = b.x1 - b.x0 + 1, h = b.y1 - b.y0 + 1;
     if (w < options.min_side_px || h < options.min_side_px) continue;
     // Touching the border of the image or of the region: the tag may be cut off.
     if (x == 0 || y == 0 || x + w == roi.width || y + h == roi.height) continue;
-    if (area < 2 * options.min_side_px * 2) continue;
-    const cv::Rect box(x - 1, y - 1, w + 2, h + 2);
-    cv::compare(labels(box), k, component, cv::CMP_EQ);
+    if (b.area < 2 * options.min_side_px * 2) continue;
+    // The component alone, with a row and column of background all round.
+    mask.create(h + 2, w + 2, CV_8UC1);
+    mask.setTo(0);
+    for (const int i : b.runs) {
+      const Run& run = runs[i];
+      auto* row = mask.ptr<std::uint8_t>(run.row - b.y0 + 1);
+      std::fill(row + run.c0 - b.x0 + 1, row + run.c1 - b.x0 + 1, 255);
+    }
     contours.clear();
-    cv::findContours(component, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
-                     cv::Point(roi.x + box.x, roi.y + box.y));
+    cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
+                     cv::Point(b.x0 - 1, b.y0 - 1));
     if (contours.empty()) continue;
     const auto largest =
         std::max_element(contours.begin(), contours.end(),
                          [](const auto& a, const auto& b) { return a.size() < b.size(); });
-    if (auto quad = quadOfContour(*largest, area, options.min_side_px)) {
+    if (auto quad = quadOfContour(*largest, b.area, options.min_side_px)) {
       quads->push_back(*quad);
     } else if (retries > 0 && w >= 2 * options.min_side_px && h >= 2 * options.min_side_px) {
       const cv::Rect again = cv::Rect(roi.x + x - 2, roi.y + y - 2, w + 4, h + 4) &
                              cv::Rect(0, 0, gray.cols, gray.rows);
-      quadsIn(gray, levels, again, margin + 0.1, retries - 1, options, quads);
+      std::vector<Run> own;
+      own.reserve(b.runs.size());
+      for (const int i : b.runs) own.push_back(runs[i]);
+      quadsIn(gray, levels, again, margin + 0.1, retries - 1, options, quads, &own);
     }
   }
 }
@@ -227,10 +342,17 @@ void quadsIn(const cv::Mat& gray, const LocalLevels& levels, const cv::Rect& roi
 }  // namespace
 
 std::vector<Quad> findQuads(const cv::Mat& gray, const QuadFinderOptions& options) {
+  return findQuads(gray, cv::Rect(0, 0, gray.cols, gray.rows), options);
+}
+
+std::vector<Quad> findQuads(const cv::Mat& gray, const cv::Rect& region,
+                            const QuadFinderOptions& options) {
   std::vector<Quad> quads;
   if (gray.empty() || gray.type() != CV_8UC1) return quads;
-  const LocalLevels levels = localLevels(gray);
-  quadsIn(gray, levels, cv::Rect(0, 0, gray.cols, gray.rows), options.margin, 2, options, &quads);
+  const cv::Rect roi = region & cv::Rect(0, 0, gray.cols, gray.rows);
+  if (roi.width < 3 || roi.height < 3) return quads;
+  const LocalLevels levels = localLevels(gray, roi);
+  quadsIn(gray, levels, roi, options.margin, 2, options, &quads);
   return quads;
 }
 

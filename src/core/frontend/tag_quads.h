@@ -39,4 +39,10 @@ using Quad = std::array<Eigen::Vector2d, 4>;
 // Every quad-shaped black component's outline in `gray` (CV_8UC1).
 std::vector<Quad> findQuads(const cv::Mat& gray, const QuadFinderOptions& options);
 
+// The same, of the components inside `region` (clipped to the image) that do not touch its
+// border: for those the quads are the whole image's, bit for bit (the levels are computed with
+// the neighbourhood's reach around the region), in the same order.
+std::vector<Quad> findQuads(const cv::Mat& gray, const cv::Rect& region,
+                            const QuadFinderOptions& options);
+
 }  // namespace mvis
