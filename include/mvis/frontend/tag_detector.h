@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,13 @@ StatusOr<TagPatterns> tagFamilyPatterns(const std::string& family, int count);
 // pixel becomes 255 (cameras put 10 or 12 bits in 16). Other types: an error naming the type.
 StatusOr<cv::Mat> grayForDetection(const cv::Mat& image);
 
+// Where one image's detection spent its time [ms, wall clock].
+struct TagDetectionStages {
+  double quads_ms = 0.0;    // thresholding and quad finding (mvis's engine; all of libapriltag's)
+  double reading_ms = 0.0;  // reading the codes, sharpening quads that did not read
+  double corners_ms = 0.0;  // sub-pixel corners and the response correction
+};
+
 class TagDetector {
  public:
   static StatusOr<std::unique_ptr<TagDetector>> create(const TagDetectorOptions& options);
@@ -69,6 +77,13 @@ class TagDetector {
   // here beyond what the decoder does; pass the result through checkTagFrame(). An empty or
   // non-8-bit image gives an error, never a crash.
   StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray) const;
+
+  // The tags whose squares lie inside `region` of `gray` (a predicted region of interest): the
+  // quads are looked for there only; codes and corners are read as in detect(), so a tag found
+  // both ways has the same corners, bit for bit. libapriltag's engine searches the whole image.
+  // `stages`, if given, receives the time spent per stage.
+  StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray, const cv::Rect& region,
+                                               TagDetectionStages* stages = nullptr) const;
 
   const TagDetectorOptions& options() const { return options_; }
 

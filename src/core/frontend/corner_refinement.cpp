@@ -52,10 +52,25 @@ void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::
   if (std::abs(det) < 1e-6) return;
   // Half the pixel's footprint along n.
   const double half = 0.5 * (std::abs(n.x()) + std::abs(n.y()));
-  const double lo_x = std::min({e0.x(), e1.x()}) - reach - 1.0;
-  const double hi_x = std::max({e0.x(), e1.x()}) + reach + 1.0;
-  const double lo_y = std::min({e0.y(), e1.y()}) - reach - 1.0;
-  const double hi_y = std::max({e0.y(), e1.y()}) + reach + 1.0;
+  double lo_x = std::min({e0.x(), e1.x()}) - reach - 1.0;
+  double hi_x = std::max({e0.x(), e1.x()}) + reach + 1.0;
+  double lo_y = std::min({e0.y(), e1.y()}) - reach - 1.0;
+  double hi_y = std::max({e0.y(), e1.y()}) + reach + 1.0;
+  // The window is the parallelogram lateral in [0, 1], t in [-reach - half, reach + half]: its
+  // box (a pixel wider all round) bounds the pixels to test.
+  const double across_n = across.dot(n);
+  if (std::abs(across_n) > 0.1) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (const double lateral : {0.0, 1.0}) {
+      for (const double t : {-reach - half, reach + half}) {
+        const Eigen::Vector2d q = e0 + lateral * d + (t - lateral * d.dot(n)) / across_n * across;
+        x0 = std::min(x0, q.x()), x1 = std::max(x1, q.x());
+        y0 = std::min(y0, q.y()), y1 = std::max(y1, q.y());
+      }
+    }
+    lo_x = std::max(lo_x, x0 - 1.0), hi_x = std::min(hi_x, x1 + 1.0);
+    lo_y = std::max(lo_y, y0 - 1.0), hi_y = std::min(hi_y, y1 + 1.0);
+  }
   const int c0 = std::max(0, static_cast<int>(std::ceil(lo_x)));
   const int c1 = std::min(gray.cols - 1, static_cast<int>(std::floor(hi_x)));
   const int r0 = std::max(0, static_cast<int>(std::ceil(lo_y)));
@@ -64,8 +79,9 @@ void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::
     const auto* row = gray.ptr<std::uint8_t>(r);
     for (int c = c0; c <= c1; ++c) {
       const Eigen::Vector2d p(c - e0.x(), r - e0.y());
-      const double lateral = (p.x() * across.y() - p.y() * across.x()) / det;
-      if (lateral < 0.0 || lateral > 1.0) continue;
+      // lateral = num / det in [0, 1], without the division.
+      const double num = p.x() * across.y() - p.y() * across.x();
+      if (det > 0.0 ? (num < 0.0 || num > det) : (num > 0.0 || num < det)) continue;
       const double t = p.dot(n);
       const double inside = std::min(t + half, reach) - std::max(t - half, -reach);
       if (inside <= 0.0) continue;
@@ -77,9 +93,8 @@ void collectWindow(const cv::Mat& gray, const Eigen::Vector2d& e0, const Eigen::
 // The step as one pixel sees it: the part of the pixel's square (centre at offset t along the
 // unit normal n) beyond the edge at offset e. The square's area projects onto n as a trapezoid,
 // a box of |n.x| convolved with a box of |n.y|; this is its cumulative distribution.
-double stepSeen(double t, double e, const Eigen::Vector2d& n) {
-  const double hi = std::max(std::abs(n.x()), std::abs(n.y()));
-  const double lo = std::min(std::abs(n.x()), std::abs(n.y()));
+// hi, lo: the larger and smaller of |n.x|, |n.y|.
+double stepSeen(double t, double e, double hi, double lo) {
   const double x = e - t;  // the edge's offset from the pixel's centre
   double below;            // part of the square before the edge
   if (lo < 1e-6) {
@@ -100,9 +115,7 @@ double stepSeen(double t, double e, const Eigen::Vector2d& n) {
 
 // Its derivative with respect to e (negative: the step moves inwards, less of the pixel is past
 // it), by the trapezoid's density.
-double stepSeenSlope(double t, double e, const Eigen::Vector2d& n) {
-  const double hi = std::max(std::abs(n.x()), std::abs(n.y()));
-  const double lo = std::min(std::abs(n.x()), std::abs(n.y()));
+double stepSeenSlope(double t, double e, double hi, double lo) {
   const double x = std::abs(e - t);
   if (x >= 0.5 * (hi + lo)) return 0.0;
   if (x <= 0.5 * (hi - lo) || lo < 1e-6) return -1.0 / hi;
@@ -120,11 +133,13 @@ std::optional<double> edgeOffset(const std::vector<EdgePixel>& pixels, double wh
   if (total <= 0.0) return std::nullopt;
   // Continuous guess, then Newton on the piecewise-linear pixel sum.
   double e = reach - area * (2.0 * reach) / total;
+  const double hi = std::max(std::abs(n.x()), std::abs(n.y()));
+  const double lo = std::min(std::abs(n.x()), std::abs(n.y()));
   for (int iteration = 0; iteration < 8; ++iteration) {
     double g = -area, slope = 0.0;
     for (const auto& p : pixels) {
-      g += p.weight * stepSeen(p.t, e, n);
-      slope += p.weight * stepSeenSlope(p.t, e, n);
+      g += p.weight * stepSeen(p.t, e, hi, lo);
+      slope += p.weight * stepSeenSlope(p.t, e, hi, lo);
     }
     if (slope >= -1e-9) break;
     const double step = -g / slope;

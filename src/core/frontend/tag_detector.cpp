@@ -12,6 +12,7 @@
 #include <apriltag/tagStandard52h13.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -29,6 +30,11 @@ namespace {
 // Kalibr) at its centre. Measured by test_tag_detector on rendered images with known corners.
 constexpr double kLibraryToMvisPx = -0.5;
 constexpr int kLibraryMinSidePx = 16;
+
+double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
 
 struct FamilyFunctions {
   apriltag_family_t* (*create)();
@@ -127,7 +133,8 @@ struct TagDetector::Impl {
 
   // Tags found, each with its border width in cells (see tag_codebook.h).
   using Found = std::vector<std::pair<TagObservation, int>>;
-  Found detectOwn(const cv::Mat& gray, const TagDetectorOptions& options) const;
+  Found detectOwn(const cv::Mat& gray, const cv::Rect& region, const TagDetectorOptions& options,
+                  TagDetectionStages* stages) const;
   Found detectLibrary(const cv::Mat& gray) const;
 
   ~Impl() {
@@ -176,10 +183,24 @@ TagDetector::TagDetector(const TagDetectorOptions& options, std::unique_ptr<Impl
 TagDetector::~TagDetector() = default;
 
 StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) const {
+  return detect(gray, cv::Rect(0, 0, gray.cols, gray.rows));
+}
+
+StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray,
+                                                          const cv::Rect& region,
+                                                          TagDetectionStages* stages) const {
   if (gray.empty() || gray.cols < 1 || gray.rows < 1) return Status::Error("empty image");
   if (gray.type() != CV_8UC1) return Status::Error("expected an 8-bit single-channel image");
-  Impl::Found found =
-      impl_->own_engine ? impl_->detectOwn(gray, options_) : impl_->detectLibrary(gray);
+  TagDetectionStages spent;
+  auto t0 = std::chrono::steady_clock::now();
+  Impl::Found found;
+  if (impl_->own_engine) {
+    found = impl_->detectOwn(gray, region, options_, &spent);
+  } else {
+    found = impl_->detectLibrary(gray);
+    spent.quads_ms = msSince(t0);
+  }
+  t0 = std::chrono::steady_clock::now();
   std::vector<TagObservation> tags;
   tags.reserve(found.size());
   // Plain tags refined by their edges, and what their stripes say of the camera's response.
@@ -241,11 +262,15 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
       for (const std::size_t k : plain) moveTagSides(&tags[k], shift);
     }
   }
+  spent.corners_ms = msSince(t0);
+  if (stages) *stages = spent;
   return tags;
 }
 
-TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
-                                                      const TagDetectorOptions& options) const {
+TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray, const cv::Rect& region,
+                                                      const TagDetectorOptions& options,
+                                                      TagDetectionStages* stages) const {
+  const auto t0 = std::chrono::steady_clock::now();
   QuadFinderOptions quad_options;
   quad_options.min_contrast = options.min_contrast;
   std::vector<Quad> quads;
@@ -256,13 +281,19 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
     const double fx = static_cast<double>(gray.cols) / small.cols;
     const double fy = static_cast<double>(gray.rows) / small.rows;
     quad_options.min_side_px = std::max(4, static_cast<int>(quad_options.min_side_px / fx));
-    quads = findQuads(small, quad_options);
+    const int x0 = static_cast<int>(std::floor(region.x / fx));
+    const int y0 = static_cast<int>(std::floor(region.y / fy));
+    const int x1 = static_cast<int>(std::ceil((region.x + region.width) / fx));
+    const int y1 = static_cast<int>(std::ceil((region.y + region.height) / fy));
+    quads = findQuads(small, cv::Rect(x0, y0, x1 - x0, y1 - y0), quad_options);
     for (auto& quad : quads) {
       for (auto& q : quad) q = Eigen::Vector2d((q.x() + 0.5) * fx - 0.5, (q.y() + 0.5) * fy - 0.5);
     }
   } else {
-    quads = findQuads(gray, quad_options);
+    quads = findQuads(gray, region, quad_options);
   }
+  stages->quads_ms = msSince(t0);
+  const auto t1 = std::chrono::steady_clock::now();
   TagReadingOptions reading;
   reading.max_hamming = options.max_hamming;
   reading.min_contrast = options.min_contrast;
@@ -271,17 +302,23 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
   sharpen.passes = 1;
   sharpen.min_cell_px = 1.2;
   sharpen.max_shift_px = 2.5;
-  // libapriltag's border of one cell, or Kalibr's of two: whichever reads better.
+  // libapriltag's border of one cell, or Kalibr's of two: whichever reads better. A board's
+  // tags share theirs: the border of the image's last tag is tried first, and a reading without
+  // an error is taken (the other border's grid of cells does not fit such a tag's square).
+  int likely_border = 2;
   const auto read = [&](const Quad& quad, int* border) {
-    auto tag = readTag(gray, quad, *codebook, 2, reading);
-    *border = 2;
+    const int first = likely_border, second = 3 - likely_border;
+    auto tag = readTag(gray, quad, *codebook, first, reading);
+    *border = first;
     if (!tag || tag->hamming > 0) {
-      if (auto plain = readTag(gray, quad, *codebook, 1, reading);
-          plain && (!tag || plain->hamming < tag->hamming)) {
-        tag = plain;
-        *border = 1;
+      if (auto other = readTag(gray, quad, *codebook, second, reading);
+          other && (!tag || other->hamming < tag->hamming ||
+                    (other->hamming == tag->hamming && second == 2))) {
+        tag = other;
+        *border = second;
       }
     }
+    if (tag) likely_border = *border;
     return tag;
   };
   for (Quad quad : quads) {
@@ -331,6 +368,7 @@ TagDetector::Impl::Found TagDetector::Impl::detectOwn(const cv::Mat& gray,
     }
     if (!duplicate) tags.emplace_back(*tag, border);
   }
+  stages->reading_ms = msSince(t1);
   return tags;
 }
 
