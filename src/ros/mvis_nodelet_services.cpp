@@ -74,7 +74,9 @@ std::string MvisNodelet::saveResult(const std::string& requested, std::string* w
     in.options = options_.estimatorOptions();
     char decimate[32];
     std::snprintf(decimate, sizeof(decimate), "%g", options_.tag_decimate);
-    in.extra_options = {{"tag_decimate", decimate}, {"camera_input", options_.camera_input}};
+    in.extra_options = {{"tag_decimate", decimate},
+                        {"tag_full_search_every", std::to_string(options_.tag_full_search_every)},
+                        {"camera_input", options_.camera_input}};
     if (have_update_) {
       for (const auto& d : last_update_.unobservable) in.unobservable.push_back(d.text());
     }

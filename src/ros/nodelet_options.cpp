@@ -28,6 +28,7 @@ void readKeys(NodeletOptions& o, Read&& read) {
   read("tag_refine_corners", o.tag_refine_corners);
   read("tag_max_hamming", o.tag_max_hamming);
   read("tag_threads", o.tag_threads);
+  read("tag_full_search_every", o.tag_full_search_every);
   read("window_size", o.window_size);
   read("carried_tags", o.carried_tags);
   read("window_own_tags", o.window_own_tags);
@@ -170,6 +171,7 @@ TagFrontendOptions NodeletOptions::frontendOptions() const {
   fo.detector.refine_corners = tag_refine_corners;
   fo.detector.max_hamming = tag_max_hamming;
   fo.detector.threads = tag_threads;
+  fo.full_search_every = tag_full_search_every;
   fo.checks.max_hamming = tag_max_hamming;
   return fo;
 }
@@ -191,6 +193,7 @@ std::string NodeletOptions::validate() const {
     return "parameter ~tag_max_hamming must be 0, 1 or 2";
   }
   if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
+  if (tag_full_search_every < 1) return "parameter ~tag_full_search_every must be >= 1";
   if (window_size < 3) return "parameter ~window_size must be >= 3";
   if (carried_tags < 0) return "parameter ~carried_tags must be >= 0 (0: every tag)";
   if (!(observability_ratio >= 0.0)) {

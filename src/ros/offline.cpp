@@ -35,6 +35,7 @@ struct ImageJob {
   std::size_t camera = 0;
   sensor_msgs::ImageConstPtr raw;               // or
   sensor_msgs::CompressedImageConstPtr packed;  // decoded by the job
+  std::uint64_t ticket = 0;                     // its camera's turn (CameraTurns)
 };
 
 // What the job found, handed to the estimator in bag order.
@@ -48,8 +49,33 @@ struct ImageOutcome {
   std::optional<StatusOr<TagFrontendResult>> tags;
 };
 
-// A fixed set of threads running image jobs; one camera's jobs take its lock, so that its
-// detector sees one image at a time (the front end's rule).
+// Each camera's images reach its detector one at a time and in bag order (the front end's rule:
+// the region searched is predicted from the camera's previous images). A job takes a ticket when
+// it is submitted and waits for its turn after decoding; jobs start in submission order, so the
+// turn before it is always taken or running.
+class CameraTurns {
+ public:
+  explicit CameraTurns(std::size_t cameras) : next_ticket_(cameras, 0), serving_(cameras, 0) {}
+  std::uint64_t ticket(std::size_t camera) { return next_ticket_[camera]++; }  // reader thread
+  template <typename Work>
+  void inTurn(std::size_t camera, std::uint64_t ticket, Work&& work) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    turn_.wait(lock, [&] { return serving_[camera] == ticket; });
+    lock.unlock();
+    work();
+    lock.lock();
+    ++serving_[camera];
+    turn_.notify_all();
+  }
+
+ private:
+  std::vector<std::uint64_t> next_ticket_;
+  std::mutex mutex_;
+  std::condition_variable turn_;
+  std::vector<std::uint64_t> serving_;
+};
+
+// A fixed set of threads running image jobs in submission order.
 class ImageWorkers {
  public:
   explicit ImageWorkers(int threads) {
@@ -96,32 +122,32 @@ class ImageWorkers {
   std::vector<std::thread> threads_;
 };
 
-ImageOutcome detectImage(const ImageJob& job, TagFrontend* frontend, std::mutex* camera_lock) {
+ImageOutcome detectImage(const ImageJob& job, TagFrontend* frontend, CameraTurns* turns) {
   ImageOutcome out;
   out.camera = job.camera;
   out.raw = job.raw != nullptr;
   cv::Mat gray;  // may share the raw message's pixels (the job holds the message)
   std::string why;
+  bool usable = false;
   if (!out.raw) {
     const auto t0 = Clock::now();
-    const bool decoded = ros_conversions::toGray(*job.packed, &gray, &why);
+    usable = ros_conversions::toGray(*job.packed, &gray, &why);
     out.decode_ms = msSince(t0);
-    if (!decoded) {
-      out.dropped = "dropped " + why;
-      return out;
-    }
     out.stamp = ros_conversions::toTimeNs(job.packed->header.stamp);
   } else {
-    if (!ros_conversions::toGray(job.raw, &gray, &why)) {
-      out.dropped = "dropped " + why;
-      return out;
-    }
+    usable = ros_conversions::toGray(job.raw, &gray, &why);
     out.stamp = ros_conversions::toTimeNs(job.raw->header.stamp);
   }
-  std::lock_guard<std::mutex> lock(*camera_lock);
-  const auto t0 = Clock::now();
-  out.tags = frontend->processImage(job.camera, out.stamp, gray);
-  out.frontend_ms = msSince(t0);
+  // A dropped image takes its turn too, so that the camera's next one gets its own.
+  turns->inTurn(job.camera, job.ticket, [&] {
+    if (!usable) {
+      out.dropped = "dropped " + why;
+      return;
+    }
+    const auto t0 = Clock::now();
+    out.tags = frontend->processImage(job.camera, out.stamp, gray);
+    out.frontend_ms = msSince(t0);
+  });
   return out;
 }
 
@@ -275,7 +301,7 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
     std::future<ImageOutcome> image;  // an image's tags
   };
   std::deque<Pending> pending;
-  std::vector<std::mutex> camera_locks(initial.cameras.size());
+  CameraTurns turns(initial.cameras.size());
   int image_threads = options.image_threads > 0
                           ? options.image_threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -299,6 +325,11 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
       ++result.dropped_messages;
       note(name + ": dropped: " + o.tags->status().message());
       return;
+    }
+    result.detection_stages.push_back(o.tags->value().stages);
+    if (o.tags->value().predicted_region) {
+      ++result.predicted_images;
+      result.searched_fraction_sum += o.tags->value().searched_fraction;
     }
     frontend->dropBefore(o.camera, o.stamp - kNsPerSecond);
     const Status status = estimator->addTagFrame(o.tags->value().frame);
@@ -382,15 +413,16 @@ StatusOr<OfflineResult> runOffline(const Rig& initial, const std::string& bag_pa
           job.raw = m.instantiate<sensor_msgs::Image>();
           if (!job.raw) continue;
         }
-        std::mutex* lock = &camera_locks[job.camera];
+        job.ticket = turns.ticket(job.camera);
         TagFrontend* f = frontend.get();
+        CameraTurns* t = &turns;
         Pending p;
         p.bag_time = bag_time;
         if (workers) {
-          p.image = workers->submit([job, f, lock] { return detectImage(job, f, lock); });
+          p.image = workers->submit([job, f, t] { return detectImage(job, f, t); });
         } else {
           std::promise<ImageOutcome> done;
-          done.set_value(detectImage(job, f, lock));
+          done.set_value(detectImage(job, f, t));
           p.image = done.get_future();
         }
         p.is_image = true;

@@ -124,6 +124,12 @@ int main(int argc, char** argv) {
       std::string v;
       if (!value(&v) || !(std::atof(v.c_str()) >= 1.0)) return usage("--tag-decimate takes >= 1");
       options.frontend.detector.decimate = std::atof(v.c_str());
+    } else if (arg == "--tag-full-search-every") {
+      std::string v;
+      if (!value(&v) || std::atoi(v.c_str()) < 1) {
+        return usage("--tag-full-search-every takes a count >= 1");
+      }
+      options.frontend.full_search_every = std::atoi(v.c_str());
     } else if (arg == "--config") {
       if (!value(&config_dir)) return usage("--config needs a directory");
     } else if (arg == "--bag") {
@@ -390,6 +396,24 @@ int main(int argc, char** argv) {
   if (!o.decode_ms.empty()) {
     std::printf("; image decoding median %.1f ms, p99 %.1f ms", percentile(o.decode_ms, 0.5),
                 percentile(o.decode_ms, 0.99));
+  }
+  if (!o.detection_stages.empty()) {
+    std::vector<double> quads, reading, corners;
+    double total[3] = {0.0, 0.0, 0.0};
+    for (const auto& s : o.detection_stages) {
+      quads.push_back(s.quads_ms), reading.push_back(s.reading_ms);
+      corners.push_back(s.corners_ms);
+      total[0] += s.quads_ms, total[1] += s.reading_ms, total[2] += s.corners_ms;
+    }
+    std::printf(
+        "; detection by stage, median/p99 ms (total s): quads %.2f/%.2f (%.2f), codes %.2f/%.2f "
+        "(%.2f), corners %.2f/%.2f (%.2f); %.0f%% of the images searched in a predicted region "
+        "(%.0f%% of the image)",
+        percentile(quads, 0.5), percentile(quads, 0.99), total[0] * 1e-3, percentile(reading, 0.5),
+        percentile(reading, 0.99), total[1] * 1e-3, percentile(corners, 0.5),
+        percentile(corners, 0.99), total[2] * 1e-3,
+        100.0 * o.predicted_images / o.detection_stages.size(),
+        o.predicted_images > 0 ? 100.0 * o.searched_fraction_sum / o.predicted_images : 0.0);
   }
   if (c.degeneracy_checks > 0) {
     std::printf("; degeneracy checks %.2f ms per solve (%.1f%% of the updates' time)",

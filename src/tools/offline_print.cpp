@@ -12,7 +12,8 @@ namespace mvis_offline {
 void printUsage(std::FILE* out) {
   std::fprintf(out,
                "usage: mvis_offline --config DIR --bag FILE --output DIR [--params FILE]\n"
-               "                    [--truth DIR] [--tag-decimate D] [--image-threads N]\n"
+               "                    [--truth DIR] [--tag-decimate D] [--tag-full-search-every N]\n"
+               "                    [--image-threads N]\n"
                "                    [--imu-chain FILE] [--cam-chain FILE] [--target FILE]\n"
                "                    [--interpolation imu|report] [--pixel-sigma PX] [--huber S]\n"
                "                    [--robust-loss frame|corner]\n"
@@ -44,6 +45,9 @@ void printUsage(std::FILE* out) {
                "  --output DIR     where the calibration and trajectory.tum go\n"
                "  --truth DIR      a simulation's truth/: print errors and the ATE\n"
                "  --tag-decimate D tags searched at 1/D resolution (>= 1)\n"
+               "  --tag-full-search-every N  images searched whole; between, tags are searched\n"
+               "                   where the previous images put them (default 10, 1: always\n"
+               "                   whole)\n"
                "  --image-threads N  threads detecting tags in images while the bag is read\n"
                "                   (default: one per core; the result does not depend on it)\n"
                "  --interpolation  frame poses from the IMU (default) or the report's\n"
@@ -174,7 +178,9 @@ mvis::Status writeReport(const std::string& dir, const mvis::Rig& initial,
   in.options = options.estimator;
   char decimate[32];
   std::snprintf(decimate, sizeof(decimate), "%g", options.frontend.detector.decimate);
-  in.extra_options = {{"tag_decimate", decimate}};
+  in.extra_options = {
+      {"tag_decimate", decimate},
+      {"tag_full_search_every", std::to_string(options.frontend.full_search_every)}};
   in.unobservable = r.unobservable;
   in.changes = r.changes;
   for (const auto& w : r.warning_kinds) {

@@ -4,12 +4,15 @@
 //                                +--> checkTagFrame --> TagTracks --> the checked frame
 //   detections (messages) ------+
 // Thread safety: different cameras may be processed concurrently; one camera's frames must
-// come one at a time (as ROS subscription callbacks do).
+// come one at a time and in time order (as ROS subscription callbacks do): the region searched
+// in an image is predicted from the camera's previous images.
 #pragma once
 
 #include <memory>
 #include <mutex>
 #include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+#include <string>
 #include <vector>
 
 #include "mvis/common/status.h"
@@ -23,13 +26,45 @@ namespace mvis {
 struct TagFrontendOptions {
   TagDetectorOptions detector;  // family and tag_spacing are taken from the rig's board if any
   TagCheckOptions checks;       // checks.num_board_tags likewise
+  // Predicted regions (mvis's engine): a camera's image is searched for tags only in the box
+  // where the tags of its previous image go, moved on at the rate they moved between the two
+  // images before, with a margin of a tag's side plus that motion. A tag found in the box has
+  // the corners the whole image's search gives, bit for bit. The whole image is searched every
+  // full_search_every-th image (a tag coming into view outside the box is found then), after a
+  // gap of more than max_prediction_gap_s, when the previous image had no tag, and when the
+  // prediction failed: half the tags predicted inside the image missed, or one missed while the
+  // tags found are more than half the margin from where they were predicted (the missed one may
+  // then be cut by the box's border; one missed well inside the box would be missed by the whole
+  // search too: there the two searches see the same).
+  // 1: every image searched whole.
+  int full_search_every = 10;
+  double max_prediction_gap_s = 0.25;
+
+  std::string validate() const;  // empty when usable
 };
 
 // What one image or detection message gave.
 struct TagFrontendResult {
   TagFrame frame;            // the observations that passed the checks
   TagRejections rejections;  // and what was dropped, why
+  // Images: searched in a predicted region only, and that region's share of the image.
+  bool predicted_region = false;
+  double searched_fraction = 1.0;
+  TagDetectionStages stages;  // both searches' when the region's was not borne out
 };
+
+// Where a camera's tags will be at `stamp_ns`, from its two previous images' tags (`last` at
+// last_ns, `before` at before_ns; before may be empty) in a width x height image: the box to
+// search (empty when there is nothing to predict from), its margin, and the tags predicted
+// wholly inside the image with their corners.
+struct TagPrediction {
+  cv::Rect region;
+  double margin_px = 0.0;
+  std::vector<TagObservation> expected;
+};
+TagPrediction predictTags(const std::vector<TagObservation>& last, TimeNs last_ns,
+                          const std::vector<TagObservation>& before, TimeNs before_ns,
+                          TimeNs stamp_ns, int width, int height);
 
 class TagFrontend {
  public:
@@ -52,7 +87,17 @@ class TagFrontend {
   TagFrontend(const Rig& rig, TagFrontendOptions options);
   TagFrontendResult record(TagFrame frame);
 
+  // A camera's two previous images' tags as detected (before the checks), for the predicted
+  // region; touched only by that camera's processImage.
+  struct SearchHistory {
+    std::vector<TagObservation> last, before;
+    TimeNs last_ns = 0, before_ns = 0;
+    bool has_last = false;
+    int since_full_search = 0;
+  };
+
   std::vector<std::array<int, 2>> resolutions_;
+  std::vector<SearchHistory> search_;
   TagFrontendOptions options_;
   std::vector<std::unique_ptr<TagDetector>> detectors_;  // one per camera
   mutable std::mutex mutex_;                             // guards tracks_

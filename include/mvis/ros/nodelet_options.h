@@ -32,6 +32,7 @@ struct NodeletOptions {
   bool tag_refine_corners = true;     // mvis's edge-based sub-pixel corner refinement
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
   int tag_threads = 1;  // > 1: cameras' images detected in parallel (and libapriltag's threads)
+  int tag_full_search_every = 10;  // images; between, tags are searched where predicted (1: off)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 5;                 // states in the sliding window
   int carried_tags = 12;               // without a board: tags carried in the prior (0: all)

@@ -64,7 +64,10 @@ struct OfflineResult {
   std::vector<int> solve_iterations;       // per update that solved
   EstimateLog log;                         // calibration after every solve, pose covariances
   std::vector<double> frontend_ms;         // per image (detection)
-  std::vector<double> decode_ms;           // per compressed image (decoding)
+  std::vector<TagDetectionStages> detection_stages;  // per image, by stage
+  long predicted_images = 0;                         // images searched in a predicted region only
+  double searched_fraction_sum = 0;                  // over those, the region's share of the image
+  std::vector<double> decode_ms;                     // per compressed image (decoding)
   long imu_messages = 0, image_messages = 0, detection_messages = 0, dropped_messages = 0;
   EstimatorCounters counters;
   ResidualStatistics residuals;  // Estimator::residualStatistics at the end

@@ -1,9 +1,96 @@
 #include "mvis/frontend/tag_frontend.h"
 
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
 namespace mvis {
 
+std::string TagFrontendOptions::validate() const {
+  if (full_search_every < 1) return "full_search_every must be >= 1";
+  if (!(max_prediction_gap_s > 0.0)) return "max_prediction_gap_s must be > 0";
+  return "";
+}
+
+TagPrediction predictTags(const std::vector<TagObservation>& last, TimeNs last_ns,
+                          const std::vector<TagObservation>& before, TimeNs before_ns,
+                          TimeNs stamp_ns, int width, int height) {
+  TagPrediction prediction;
+  if (last.empty() || stamp_ns <= last_ns) return prediction;
+  // The corners move on as they moved between the two images before (not beyond twice that
+  // interval's motion).
+  const double ratio =
+      before_ns < last_ns
+          ? std::min(2.0, static_cast<double>(stamp_ns - last_ns) / (last_ns - before_ns))
+          : 0.0;
+  double lo_x = 1e18, lo_y = 1e18, hi_x = -1e18, hi_y = -1e18, side = 0.0, motion = 0.0;
+  for (const TagObservation& tag : last) {
+    const TagObservation* earlier = nullptr;
+    for (const TagObservation& other : before) {
+      if (other.tag_id == tag.tag_id) earlier = &other;
+    }
+    TagObservation next = tag;
+    bool inside = true;
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Vector2d& now = tag.corners_px[c];
+      const Eigen::Vector2d step =
+          earlier ? Eigen::Vector2d(ratio * (now - earlier->corners_px[c])) : Eigen::Vector2d(0, 0);
+      next.corners_px[c] = now + step;
+      for (const Eigen::Vector2d& p : {now, next.corners_px[c]}) {
+        lo_x = std::min(lo_x, p.x()), hi_x = std::max(hi_x, p.x());
+        lo_y = std::min(lo_y, p.y()), hi_y = std::max(hi_y, p.y());
+      }
+      const Eigen::Vector2d& q = next.corners_px[c];
+      inside =
+          inside && q.x() >= 2.0 && q.y() >= 2.0 && q.x() <= width - 3.0 && q.y() <= height - 3.0;
+      side = std::max(side, (tag.corners_px[(c + 1) % 4] - now).norm());
+      motion = std::max(motion, step.norm());
+    }
+    if (inside) prediction.expected.push_back(next);
+  }
+  // A tag's side around the box (its white ring and the board's gap, and what a change of
+  // scale adds), plus the motion (what a change of speed may add).
+  prediction.margin_px = std::max(16.0, side) + motion;
+  const double margin = prediction.margin_px;
+  const int x0 = std::max(0, static_cast<int>(std::floor(lo_x - margin)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(lo_y - margin)));
+  const int x1 = std::min(width, static_cast<int>(std::ceil(hi_x + margin)) + 1);
+  const int y1 = std::min(height, static_cast<int>(std::ceil(hi_y + margin)) + 1);
+  if (x1 <= x0 || y1 <= y0) return TagPrediction{};
+  prediction.region = cv::Rect(x0, y0, x1 - x0, y1 - y0);
+  return prediction;
+}
+
+namespace {
+
+// Whether the tags found in a predicted region bear the prediction out (see
+// TagFrontendOptions::full_search_every): a tag predicted inside the box lies at least the
+// margin from its border, so a missed one could only have been cut off by the border if the
+// tags found are off their predictions by a good part of the margin.
+bool predictionHeld(const TagPrediction& prediction, const std::vector<TagObservation>& found) {
+  std::size_t missed = 0;
+  double error = 0.0;
+  for (const TagObservation& expected : prediction.expected) {
+    const auto it = std::find_if(found.begin(), found.end(), [&](const TagObservation& t) {
+      return t.tag_id == expected.tag_id;
+    });
+    if (it == found.end()) {
+      ++missed;
+      continue;
+    }
+    for (int c = 0; c < 4; ++c) {
+      error = std::max(error, (it->corners_px[c] - expected.corners_px[c]).norm());
+    }
+  }
+  if (prediction.expected.empty()) return !found.empty();
+  if (2 * missed >= prediction.expected.size()) return false;
+  return missed == 0 || error <= 0.5 * prediction.margin_px;
+}
+
+}  // namespace
+
 TagFrontend::TagFrontend(const Rig& rig, TagFrontendOptions options)
-    : options_(std::move(options)), tracks_(rig.cameras.size()) {
+    : search_(rig.cameras.size()), options_(std::move(options)), tracks_(rig.cameras.size()) {
   for (const auto& camera : rig.cameras) resolutions_.push_back(camera.resolution);
 }
 
@@ -16,6 +103,9 @@ StatusOr<std::unique_ptr<TagFrontend>> TagFrontend::create(const Rig& rig,
   }
   if (const std::string problem = options.checks.validate(); !problem.empty()) {
     return Status::Error("tag checks: " + problem);
+  }
+  if (const std::string problem = options.validate(); !problem.empty()) {
+    return Status::Error("tag front end: " + problem);
   }
   std::unique_ptr<TagFrontend> frontend(new TagFrontend(rig, options));
   for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
@@ -35,13 +125,50 @@ StatusOr<TagFrontendResult> TagFrontend::processImage(std::size_t camera, TimeNs
                          ", the camera's resolution is " + std::to_string(resolution[0]) + "x" +
                          std::to_string(resolution[1]));
   }
-  auto tags = detectors_[camera]->detect(gray);
-  if (!tags.ok()) return tags.status();
+  if (gray.empty()) return Status::Error("empty image");
+  SearchHistory& history = search_[camera];
+  const TagDetector& detector = *detectors_[camera];
+  // The predicted region, unless it is time for a whole search.
+  TagPrediction prediction;
+  const bool recent =
+      history.has_last && stamp_ns > history.last_ns &&
+      static_cast<double>(stamp_ns - history.last_ns) <= options_.max_prediction_gap_s * 1e9;
+  if (recent && history.since_full_search + 1 < options_.full_search_every) {
+    prediction = predictTags(history.last, history.last_ns, history.before, history.before_ns,
+                             stamp_ns, gray.cols, gray.rows);
+  }
+  const cv::Rect& region = prediction.region;
+  std::optional<StatusOr<std::vector<TagObservation>>> tags;
+  TagDetectionStages spent, whole;
+  if (!region.empty()) {
+    tags = detector.detect(gray, region, &spent);
+    if (tags->ok() && !predictionHeld(prediction, tags->value())) tags.reset();
+  }
+  const bool predicted = tags.has_value();
+  if (!predicted) {
+    tags = detector.detect(gray, cv::Rect(0, 0, gray.cols, gray.rows), &whole);
+    spent.quads_ms += whole.quads_ms;
+    spent.reading_ms += whole.reading_ms;
+    spent.corners_ms += whole.corners_ms;
+  }
+  if (!tags->ok()) return tags->status();
+  history.since_full_search = predicted ? history.since_full_search + 1 : 0;
+  history.before = std::move(history.last);
+  history.before_ns = history.last_ns;
+  history.last = tags->value();
+  history.last_ns = stamp_ns;
+  history.has_last = !history.last.empty();
   TagFrame frame;
   frame.camera = camera;
   frame.stamp_ns = stamp_ns;
-  frame.tags = std::move(tags).value();
-  return record(std::move(frame));
+  frame.tags = std::move(*tags).value();
+  TagFrontendResult result = record(std::move(frame));
+  result.predicted_region = predicted;
+  result.stages = spent;
+  result.searched_fraction =
+      predicted ? static_cast<double>(region.area()) / (static_cast<double>(gray.cols) * gray.rows)
+                : 1.0;
+  return result;
 }
 
 StatusOr<TagFrontendResult> TagFrontend::processDetections(TagFrame frame) {
