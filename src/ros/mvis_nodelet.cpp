@@ -160,9 +160,11 @@ void MvisNodelet::subscribeSensors() {
   }
   imu_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &imu_queue_);
   imu_spinner_->start();
-  // With tag_threads > 1 the cameras' images are detected on the nodelet manager's
-  // multi-threaded queue, in parallel (one camera's frames still one at a time).
-  ros::NodeHandle& image_nh = options_.tag_threads > 1 ? getMTNodeHandle() : nh;
+  // With more than one tag thread (by default one per core) the cameras' images are decoded
+  // and detected on the nodelet manager's multi-threaded queue, in parallel (one camera's
+  // frames still one at a time and in order: the front end predicts where the tags are from
+  // the camera's previous frames).
+  ros::NodeHandle& image_nh = options_.tagThreads() > 1 ? getMTNodeHandle() : nh;
   in_.image_transport = std::make_unique<image_transport::ImageTransport>(image_nh);
   in_.private_image_transport =
       std::make_unique<image_transport::ImageTransport>(getPrivateNodeHandle());

@@ -2,8 +2,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <type_traits>
 
 namespace mvis {
@@ -165,12 +167,17 @@ EstimatorOptions NodeletOptions::estimatorOptions() const {
   return eo;
 }
 
+int NodeletOptions::tagThreads() const {
+  return tag_threads > 0 ? tag_threads
+                         : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 TagFrontendOptions NodeletOptions::frontendOptions() const {
   TagFrontendOptions fo;
   fo.detector.decimate = tag_decimate;
   fo.detector.refine_corners = tag_refine_corners;
   fo.detector.max_hamming = tag_max_hamming;
-  fo.detector.threads = tag_threads;
+  fo.detector.threads = tagThreads();
   fo.full_search_every = tag_full_search_every;
   fo.checks.max_hamming = tag_max_hamming;
   return fo;
@@ -192,7 +199,7 @@ std::string NodeletOptions::validate() const {
   if (tag_max_hamming < 0 || tag_max_hamming > 2) {
     return "parameter ~tag_max_hamming must be 0, 1 or 2";
   }
-  if (tag_threads < 1) return "parameter ~tag_threads must be >= 1";
+  if (tag_threads < 0) return "parameter ~tag_threads must be >= 0 (0: one per core)";
   if (tag_full_search_every < 1) return "parameter ~tag_full_search_every must be >= 1";
   if (window_size < 3) return "parameter ~window_size must be >= 3";
   if (carried_tags < 0) return "parameter ~carried_tags must be >= 0 (0: every tag)";

@@ -8,6 +8,7 @@ import bisect
 import csv
 import math
 import os
+import shutil
 import time
 import unittest
 
@@ -198,6 +199,7 @@ class Replay(unittest.TestCase):
         self.assertFalse(refused.success)
         self.assertIn("never overwritten", refused.message)
         named = os.path.join(self.data, "named_result")
+        shutil.rmtree(named, ignore_errors=True)  # a previous run's, when the test is run again
         written = save_to(named)
         self.assertTrue(written.success, written.message)
         self.assertEqual(written.directory, named)

@@ -31,7 +31,10 @@ struct NodeletOptions {
   double tag_decimate = 2.0;          // quad search at 1/decimate resolution (>= 1)
   bool tag_refine_corners = true;     // mvis's edge-based sub-pixel corner refinement
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
-  int tag_threads = 1;  // > 1: cameras' images detected in parallel (and libapriltag's threads)
+  // Threads detecting tags, 0: one per core; above 1 the cameras' images are detected in
+  // parallel (and libapriltag gets as many threads).
+  int tag_threads = 0;
+  int tagThreads() const;  // tag_threads, 0 resolved
   int tag_full_search_every = 10;  // images; between, tags are searched where predicted (1: off)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 5;                 // states in the sliding window
