@@ -34,7 +34,7 @@ struct NodeletOptions {
   // Threads detecting tags, 0: one per core; above 1 the cameras' images are detected in
   // parallel (and libapriltag gets as many threads).
   int tag_threads = 0;
-  int tagThreads() const;  // tag_threads, 0 resolved
+  int tagThreads() const;          // tag_threads, 0 resolved
   int tag_full_search_every = 10;  // images; between, tags are searched where predicted (1: off)
   // Estimator (see config/mvis.yaml and include/mvis/estimator/estimator.h).
   int window_size = 5;                 // states in the sliding window
