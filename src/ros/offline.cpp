@@ -49,10 +49,10 @@ struct ImageOutcome {
   std::optional<StatusOr<TagFrontendResult>> tags;
 };
 
-// Each camera's images reach its detector one at a time and in bag order (the front end's rule:
-// the region searched is predicted from the camera's previous images). A job takes a ticket when
-// it is submitted and waits for its turn after decoding; jobs start in submission order, so the
-// turn before it is always taken or running.
+// Each camera's images are located (TagFrontend::locateTags) one at a time and in bag order (the
+// front end's rule: the region searched is predicted from the camera's previous images). A job
+// takes a ticket when it is submitted and waits for its turn after decoding; jobs start in
+// submission order, so the turn before it is always taken or running.
 class CameraTurns {
  public:
   explicit CameraTurns(std::size_t cameras) : next_ticket_(cameras, 0), serving_(cameras, 0) {}
@@ -138,16 +138,27 @@ ImageOutcome detectImage(const ImageJob& job, TagFrontend* frontend, CameraTurns
     usable = ros_conversions::toGray(job.raw, &gray, &why);
     out.stamp = ros_conversions::toTimeNs(job.raw->header.stamp);
   }
-  // A dropped image takes its turn too, so that the camera's next one gets its own.
+  // Found in turn (a dropped image takes its turn too, so that the camera's next one gets its
+  // own); the corners refined outside it, beside the camera's next image.
+  std::optional<StatusOr<LocatedTags>> located;
+  double located_ms = 0.0;
   turns->inTurn(job.camera, job.ticket, [&] {
-    if (!usable) {
-      out.dropped = "dropped " + why;
-      return;
-    }
+    if (!usable) return;
     const auto t0 = Clock::now();
-    out.tags = frontend->processImage(job.camera, out.stamp, gray);
-    out.frontend_ms = msSince(t0);
+    located = frontend->locateTags(job.camera, out.stamp, gray);
+    located_ms = msSince(t0);
   });
+  if (!usable) {
+    out.dropped = "dropped " + why;
+    return out;
+  }
+  const auto t0 = Clock::now();
+  if (located->ok()) {
+    out.tags = frontend->finishImage(job.camera, gray, std::move(*located).value());
+  } else {
+    out.tags = located->status();
+  }
+  out.frontend_ms = located_ms + msSince(t0);
   return out;
 }
 

@@ -131,6 +131,43 @@ TEST(PredictedRegions, RenderedSequencesGiveTheWholeSearchsTagsAndCorners) {
 // Each real photo moved across the image as a camera panning at 20 Hz would see it (8 px right
 // and 5 px up per image, the uncovered part grey): the first image searched whole, the next
 // ones in the predicted regions.
+// locateTags in order, finishImage in any order (as mvis_offline's threads do): the frames of
+// processImage, exactly.
+TEST(PredictedRegions, LocatingInOrderAndRefiningInAnyOrderGivesTheSameFrames) {
+  AprilGrid grid = realBoard();
+  grid.tag_cols = grid.tag_rows = 8, grid.tag_size = 0.05;
+  const Rig rig = oneCameraRig(752, 480, grid);
+  const std::vector<cv::Mat> images = renderedSequence(grid, BoardKind::kPlain);
+  auto in_one = TagFrontend::create(rig, TagFrontendOptions());
+  auto split = TagFrontend::create(rig, TagFrontendOptions());
+  ASSERT_TRUE(in_one.ok() && split.ok());
+  std::vector<LocatedTags> located;
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    auto l = split.value()->locateTags(0, static_cast<TimeNs>(k) * kFrameNs, images[k]);
+    ASSERT_TRUE(l.ok());
+    located.push_back(std::move(l).value());
+  }
+  int predicted = 0;
+  std::vector<TagFrontendResult> expected;
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    expected.push_back(
+        in_one.value()->processImage(0, static_cast<TimeNs>(k) * kFrameNs, images[k]).value());
+  }
+  for (std::size_t k = images.size(); k-- > 0;) {
+    const auto b = split.value()->finishImage(0, images[k], located[k]);
+    ASSERT_TRUE(b.ok());
+    predicted += b.value().predicted_region;
+    const auto& want = expected[k].frame.tags;
+    const auto& got = b.value().frame.tags;
+    ASSERT_EQ(want.size(), got.size()) << "image " << k;
+    for (std::size_t t = 0; t < want.size(); ++t) {
+      EXPECT_EQ(want[t].tag_id, got[t].tag_id);
+      for (int c = 0; c < 4; ++c) EXPECT_EQ(want[t].corners_px[c], got[t].corners_px[c]);
+    }
+  }
+  EXPECT_EQ(predicted, 18);
+}
+
 TEST(PredictedRegions, RealAprilGridPhotosGiveTheWholeSearchsTagsAndCorners) {
   std::vector<std::string> names = {"cam0_1403709395937837056.png", "cam1_1403709395937837056.png",
                                     "euroc_aprilgrid.png"};

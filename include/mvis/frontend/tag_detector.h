@@ -66,6 +66,14 @@ struct TagDetectionStages {
   double corners_ms = 0.0;  // sub-pixel corners and the response correction
 };
 
+// The tags of an image found and read, before their corners are refined: detect()'s first two
+// stages, for callers that run the last one elsewhere.
+struct FoundTags {
+  std::vector<TagObservation> tags;  // corners from the quads, good to a pixel or so
+  std::vector<int> borders;          // per tag, its border width in cells
+  TagDetectionStages stages;         // quads_ms and reading_ms
+};
+
 class TagDetector {
  public:
   static StatusOr<std::unique_ptr<TagDetector>> create(const TagDetectorOptions& options);
@@ -84,6 +92,12 @@ class TagDetector {
   // `stages`, if given, receives the time spent per stage.
   StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray, const cv::Rect& region,
                                                TagDetectionStages* stages = nullptr) const;
+
+  // detect() in two steps: find() the tags (quads and codes), then refine() their corners
+  // (sets stages->corners_ms). detect() is refine(find()).
+  StatusOr<FoundTags> find(const cv::Mat& gray, const cv::Rect& region) const;
+  std::vector<TagObservation> refine(const cv::Mat& gray, FoundTags found,
+                                     TagDetectionStages* stages = nullptr) const;
 
   const TagDetectorOptions& options() const { return options_; }
 

@@ -5,7 +5,8 @@
 //   detections (messages) ------+
 // Thread safety: different cameras may be processed concurrently; one camera's frames must
 // come one at a time and in time order (as ROS subscription callbacks do): the region searched
-// in an image is predicted from the camera's previous images.
+// in an image is predicted from the camera's previous images (the tags as found, before their
+// corners are refined). locateTags()/finishImage() split that rule.
 #pragma once
 
 #include <memory>
@@ -53,6 +54,15 @@ struct TagFrontendResult {
   TagDetectionStages stages;  // both searches' when the region's was not borne out
 };
 
+// An image's tags found and read in its predicted region (or the whole image), their corners not
+// yet refined.
+struct LocatedTags {
+  TimeNs stamp_ns = 0;
+  FoundTags found;
+  bool predicted_region = false;
+  double searched_fraction = 1.0;
+};
+
 // Where a camera's tags will be at `stamp_ns`, from its two previous images' tags (`last` at
 // last_ns, `before` at before_ns; before may be empty) in a width x height image: the box to
 // search (empty when there is nothing to predict from), its margin, and the tags predicted
@@ -76,6 +86,14 @@ class TagFrontend {
   StatusOr<TagFrontendResult> processImage(std::size_t camera, TimeNs stamp_ns,
                                            const cv::Mat& gray);
 
+  // processImage() in two steps, for callers that refine one camera's images in parallel:
+  // locateTags() finds and reads the tags (one camera's images one at a time and in time order:
+  // the region searched is predicted from the camera's previous images), finishImage() refines
+  // their corners, checks and records them (any thread, any order).
+  StatusOr<LocatedTags> locateTags(std::size_t camera, TimeNs stamp_ns, const cv::Mat& gray);
+  StatusOr<TagFrontendResult> finishImage(std::size_t camera, const cv::Mat& gray,
+                                          LocatedTags located);
+
   // Checks and records detections made elsewhere (frame.width/height are set from the rig).
   StatusOr<TagFrontendResult> processDetections(TagFrame frame);
 
@@ -87,8 +105,8 @@ class TagFrontend {
   TagFrontend(const Rig& rig, TagFrontendOptions options);
   TagFrontendResult record(TagFrame frame);
 
-  // A camera's two previous images' tags as detected (before the checks), for the predicted
-  // region; touched only by that camera's processImage.
+  // A camera's two previous images' tags as found (before refinement and the checks), for the
+  // predicted region; touched only by that camera's locateTags.
   struct SearchHistory {
     std::vector<TagObservation> last, before;
     TimeNs last_ns = 0, before_ns = 0;

@@ -189,24 +189,44 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) c
 StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray,
                                                           const cv::Rect& region,
                                                           TagDetectionStages* stages) const {
+  auto found = find(gray, region);
+  if (!found.ok()) return found.status();
+  TagDetectionStages spent = found.value().stages;
+  auto tags = refine(gray, std::move(found).value(), &spent);
+  if (stages) *stages = spent;
+  return tags;
+}
+
+StatusOr<FoundTags> TagDetector::find(const cv::Mat& gray, const cv::Rect& region) const {
   if (gray.empty() || gray.cols < 1 || gray.rows < 1) return Status::Error("empty image");
   if (gray.type() != CV_8UC1) return Status::Error("expected an 8-bit single-channel image");
-  TagDetectionStages spent;
-  auto t0 = std::chrono::steady_clock::now();
+  FoundTags out;
+  const auto t0 = std::chrono::steady_clock::now();
   Impl::Found found;
   if (impl_->own_engine) {
-    found = impl_->detectOwn(gray, region, options_, &spent);
+    found = impl_->detectOwn(gray, region, options_, &out.stages);
   } else {
     found = impl_->detectLibrary(gray);
-    spent.quads_ms = msSince(t0);
+    out.stages.quads_ms = msSince(t0);
   }
-  t0 = std::chrono::steady_clock::now();
+  for (auto& [tag, border] : found) {
+    out.tags.push_back(tag);
+    out.borders.push_back(border);
+  }
+  return out;
+}
+
+std::vector<TagObservation> TagDetector::refine(const cv::Mat& gray, FoundTags found,
+                                                TagDetectionStages* stages) const {
+  const auto t0 = std::chrono::steady_clock::now();
   std::vector<TagObservation> tags;
-  tags.reserve(found.size());
+  tags.reserve(found.tags.size());
   // Plain tags refined by their edges, and what their stripes say of the camera's response.
   std::vector<std::size_t> plain;
   std::vector<double> shifts;
-  for (auto& [tag, border] : found) {
+  for (std::size_t k = 0; k < found.tags.size(); ++k) {
+    TagObservation& tag = found.tags[k];
+    const int border = found.borders[k];
     if (options_.refine_corners && impl_->codebook) {
       const TagCodebook& book = *impl_->codebook;
       const int id = tag.tag_id, b = border;
@@ -262,8 +282,7 @@ StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray,
       for (const std::size_t k : plain) moveTagSides(&tags[k], shift);
     }
   }
-  spent.corners_ms = msSince(t0);
-  if (stages) *stages = spent;
+  if (stages) stages->corners_ms = msSince(t0);
   return tags;
 }
 

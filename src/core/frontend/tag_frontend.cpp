@@ -118,6 +118,13 @@ StatusOr<std::unique_ptr<TagFrontend>> TagFrontend::create(const Rig& rig,
 
 StatusOr<TagFrontendResult> TagFrontend::processImage(std::size_t camera, TimeNs stamp_ns,
                                                       const cv::Mat& gray) {
+  auto located = locateTags(camera, stamp_ns, gray);
+  if (!located.ok()) return located.status();
+  return finishImage(camera, gray, std::move(located).value());
+}
+
+StatusOr<LocatedTags> TagFrontend::locateTags(std::size_t camera, TimeNs stamp_ns,
+                                              const cv::Mat& gray) {
   if (camera >= detectors_.size()) return Status::Error("no camera " + std::to_string(camera));
   const auto& resolution = resolutions_[camera];
   if (!gray.empty() && (gray.cols != resolution[0] || gray.rows != resolution[1])) {
@@ -138,36 +145,51 @@ StatusOr<TagFrontendResult> TagFrontend::processImage(std::size_t camera, TimeNs
                              stamp_ns, gray.cols, gray.rows);
   }
   const cv::Rect& region = prediction.region;
-  std::optional<StatusOr<std::vector<TagObservation>>> tags;
-  TagDetectionStages spent, whole;
+  std::optional<StatusOr<FoundTags>> found;
+  TagDetectionStages spent;
   if (!region.empty()) {
-    tags = detector.detect(gray, region, &spent);
-    if (tags->ok() && !predictionHeld(prediction, tags->value())) tags.reset();
+    found = detector.find(gray, region);
+    if (found->ok()) spent = found->value().stages;
+    if (found->ok() && !predictionHeld(prediction, found->value().tags)) found.reset();
   }
-  const bool predicted = tags.has_value();
-  if (!predicted) {
-    tags = detector.detect(gray, cv::Rect(0, 0, gray.cols, gray.rows), &whole);
-    spent.quads_ms += whole.quads_ms;
-    spent.reading_ms += whole.reading_ms;
-    spent.corners_ms += whole.corners_ms;
+  LocatedTags located;
+  located.stamp_ns = stamp_ns;
+  located.predicted_region = found.has_value();
+  if (!located.predicted_region) {
+    found = detector.find(gray, cv::Rect(0, 0, gray.cols, gray.rows));
+    if (found->ok()) {
+      spent.quads_ms += found->value().stages.quads_ms;
+      spent.reading_ms += found->value().stages.reading_ms;
+    }
   }
-  if (!tags->ok()) return tags->status();
-  history.since_full_search = predicted ? history.since_full_search + 1 : 0;
+  if (!found->ok()) return found->status();
+  located.found = std::move(*found).value();
+  located.found.stages = spent;
+  located.searched_fraction =
+      located.predicted_region
+          ? static_cast<double>(region.area()) / (static_cast<double>(gray.cols) * gray.rows)
+          : 1.0;
+  history.since_full_search = located.predicted_region ? history.since_full_search + 1 : 0;
   history.before = std::move(history.last);
   history.before_ns = history.last_ns;
-  history.last = tags->value();
+  history.last = located.found.tags;
   history.last_ns = stamp_ns;
   history.has_last = !history.last.empty();
+  return located;
+}
+
+StatusOr<TagFrontendResult> TagFrontend::finishImage(std::size_t camera, const cv::Mat& gray,
+                                                     LocatedTags located) {
+  if (camera >= detectors_.size()) return Status::Error("no camera " + std::to_string(camera));
+  TagDetectionStages stages = located.found.stages;
   TagFrame frame;
   frame.camera = camera;
-  frame.stamp_ns = stamp_ns;
-  frame.tags = std::move(*tags).value();
+  frame.stamp_ns = located.stamp_ns;
+  frame.tags = detectors_[camera]->refine(gray, std::move(located.found), &stages);
   TagFrontendResult result = record(std::move(frame));
-  result.predicted_region = predicted;
-  result.stages = spent;
-  result.searched_fraction =
-      predicted ? static_cast<double>(region.area()) / (static_cast<double>(gray.cols) * gray.rows)
-                : 1.0;
+  result.predicted_region = located.predicted_region;
+  result.stages = stages;
+  result.searched_fraction = located.searched_fraction;
   return result;
 }
 

@@ -11,9 +11,9 @@ bool TagTracks::add(const TagFrame& frame) {
     for (int c = 0; c < 4; ++c) {
       auto& track = tracks[featureId(tag.tag_id, c)];
       const TrackedCorner observation{frame.stamp_ns, tag.corners_px[c]};
-      const auto at = std::lower_bound(
-          track.begin(), track.end(), frame.stamp_ns,
-          [](const TrackedCorner& o, TimeNs stamp) { return o.stamp_ns < stamp; });
+      const auto at =
+          std::lower_bound(track.begin(), track.end(), frame.stamp_ns,
+                           [](const TrackedCorner& o, TimeNs stamp) { return o.stamp_ns < stamp; });
       if (at != track.end() && at->stamp_ns == frame.stamp_ns) {
         *at = observation;
       } else {
