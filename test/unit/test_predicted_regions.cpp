@@ -48,11 +48,14 @@ struct Comparison {
   int tags = 0;
 };
 
-Comparison compare(const Rig& rig, const std::vector<cv::Mat>& images, const std::string& what) {
-  TagFrontendOptions whole_options;
+Comparison compare(const Rig& rig, const std::vector<cv::Mat>& images, const std::string& what,
+                   double decimate = 1.0) {
+  TagFrontendOptions options;
+  options.detector.decimate = decimate;
+  TagFrontendOptions whole_options = options;
   whole_options.full_search_every = 1;
   auto whole = TagFrontend::create(rig, whole_options);
-  auto predicted = TagFrontend::create(rig, TagFrontendOptions());
+  auto predicted = TagFrontend::create(rig, options);
   EXPECT_TRUE(whole.ok() && predicted.ok());
   Comparison out;
   for (std::size_t k = 0; k < images.size(); ++k) {
@@ -118,13 +121,18 @@ TEST(PredictedRegions, RenderedSequencesGiveTheWholeSearchsTagsAndCorners) {
     const std::string what = kind == BoardKind::kPlain ? "plain board" : "AprilGrid";
     AprilGrid grid = realBoard();
     if (kind == BoardKind::kPlain) grid.tag_cols = grid.tag_rows = 8, grid.tag_size = 0.05;
-    const Comparison c = compare(oneCameraRig(752, 480, grid), renderedSequence(grid, kind), what);
-    // Every image but the first and every tenth searched in its predicted region only, a part
-    // of the image; the corners the same to 0.01 px (they are the same bit for bit).
-    EXPECT_EQ(c.predicted, 18) << what;
-    EXPECT_LT(c.largest_fraction, 0.6) << what;
-    EXPECT_GE(c.tags, 20 * grid.numTags() * 9 / 10) << what;
-    EXPECT_LE(c.largest_difference_px, 0.01) << what;
+    const std::vector<cv::Mat> images = renderedSequence(grid, kind);
+    // Quads searched at full and at half resolution (the nodelet's default).
+    for (const double decimate : {1.0, 2.0}) {
+      const std::string run = what + ", decimate " + std::to_string(decimate);
+      const Comparison c = compare(oneCameraRig(752, 480, grid), images, run, decimate);
+      // Every image but the first and every tenth searched in its predicted region only, a part
+      // of the image; the corners the same to 0.01 px (they are the same bit for bit).
+      EXPECT_EQ(c.predicted, 18) << run;
+      EXPECT_LT(c.largest_fraction, 0.6) << run;
+      EXPECT_GE(c.tags, 20 * grid.numTags() * 9 / 10) << run;
+      EXPECT_LE(c.largest_difference_px, 0.01) << run;
+    }
   }
 }
 
