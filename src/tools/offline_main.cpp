@@ -52,18 +52,14 @@ int usage(const char* message) {
   return 2;
 }
 
-// The --params file's options (or the defaults, tag_decimate 1), with a relative config_dir
-// made relative to the file.
+// The --params file's options (or the defaults), with a relative config_dir made relative to
+// the file.
 mvis::StatusOr<mvis::NodeletOptions> readParams(int argc, char** argv) {
   std::string path;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "--params") path = argv[i + 1];
   }
-  if (path.empty()) {
-    mvis::NodeletOptions defaults;
-    defaults.tag_decimate = 1.0;  // offline has the time for full resolution
-    return defaults;
-  }
+  if (path.empty()) return mvis::NodeletOptions();
   auto read = mvis::NodeletOptions::fromYamlFile(path);
   if (!read.ok()) return read;
   mvis::NodeletOptions o = read.value();

@@ -62,11 +62,11 @@ TEST(NodeletOptions, DeviceConfigurationsLoad) {
 TEST(NodeletOptions, ReadsValuesAndRefusesWrongOnes) {
   const auto read = NodeletOptions::fromYamlFile(writeTemp(
       "params_ok.yaml",
-      "estimate_intrinsics: true\nmin_tags: 4\ntag_decimate: 1\nhold: [cam1.intrinsics]\n"));
+      "estimate_intrinsics: true\nmin_tags: 4\ntag_decimate: 2\nhold: [cam1.intrinsics]\n"));
   ASSERT_TRUE(read.ok()) << read.status().message();
   EXPECT_TRUE(read.value().estimatorOptions().estimate_intrinsics);
   EXPECT_EQ(read.value().estimatorOptions().min_tags, 4);
-  EXPECT_EQ(read.value().frontendOptions().detector.decimate, 1.0);
+  EXPECT_EQ(read.value().frontendOptions().detector.decimate, 2.0);
   EXPECT_EQ(read.value().hold, std::vector<std::string>{"cam1.intrinsics"});
   EXPECT_TRUE(read.value().estimatorOptions().estimate_extrinsics);  // the default
 

@@ -28,7 +28,7 @@ struct NodeletOptions {
   std::string camera_input = "image";
   double diagnostics_period_s = 1.0;  // [s] between diagnostics messages
   double sensor_timeout_s = 1.0;      // [s] silence after which a sensor counts as stopped
-  double tag_decimate = 2.0;          // quad search at 1/decimate resolution (>= 1)
+  double tag_decimate = 1.0;          // quad search at 1/decimate resolution (>= 1)
   bool tag_refine_corners = true;     // mvis's edge-based sub-pixel corner refinement
   int tag_max_hamming = 1;            // bits the tag decoder may correct (0..2)
   // Threads detecting tags, 0: one per core; above 1 the cameras' images are detected in
