@@ -15,8 +15,9 @@
 // tolerated), solid components (the squares themselves) are refused, and the corners are
 // sharpened by intersecting lines fitted to the middle of each side. A component that is no quad
 // but big enough to hold several (tags joined where a junction's centre came out dark) is
-// thresholded again in its box with a larger margin (0.2, then 0.3). They are good to a fraction of
-// a cell, enough to read the code; the sub-pixel corners come later (corner_refinement.h).
+// thresholded again with a larger margin (0.2, then 0.3), its own pixels only (not the other
+// components its box overlaps). They are good to a fraction of a cell, enough to read the code;
+// the sub-pixel corners come later (corner_refinement.h).
 #pragma once
 
 #include <Eigen/Core>
