@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "mvis/common/lie.h"
 #include "mvis/frontend/debug_image.h"
 #include "mvis/rig/rig_io.h"
 #include "mvis/ros/conversions.h"
@@ -498,8 +499,7 @@ void MvisNodelet::publishOdometry(const EstimatorState& state, ros::WallTime arr
   // left out). Angular: the gyroscope bias's covariance plus one reading's white noise
   // (noise density^2 x rate). Propagation since that state adds to both and is not counted.
   const Eigen::Matrix3d R_I_G = (T_W_I.q.conjugate() * T_W_G.q).toRotationMatrix();
-  Eigen::Matrix3d v_cross;
-  v_cross << 0.0, -v_I.z(), v_I.y(), v_I.z(), 0.0, -v_I.x(), -v_I.y(), v_I.x(), 0.0;
+  const Eigen::Matrix3d v_cross = lie::hat(v_I);
   const Eigen::Matrix3d linear =
       R_I_G * last_velocity_covariance_ * R_I_G.transpose() +
       v_cross * last_pose_covariance_.topLeftCorner<3, 3>() * v_cross.transpose();

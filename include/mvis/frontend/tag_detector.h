@@ -86,15 +86,11 @@ class TagDetector {
   // non-8-bit image gives an error, never a crash.
   StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray) const;
 
-  // The tags whose squares lie inside `region` of `gray` (a predicted region of interest): the
-  // quads are looked for there only; codes and corners are read as in detect(), so a tag found
-  // both ways has the same corners, bit for bit. libapriltag's engine searches the whole image.
-  // `stages`, if given, receives the time spent per stage.
-  StatusOr<std::vector<TagObservation>> detect(const cv::Mat& gray, const cv::Rect& region,
-                                               TagDetectionStages* stages = nullptr) const;
-
   // detect() in two steps: find() the tags (quads and codes), then refine() their corners
-  // (sets stages->corners_ms). detect() is refine(find()).
+  // (sets stages->corners_ms); detect() is refine(find()) over the whole image. find() looks
+  // for quads inside `region` only (a predicted region of interest): a tag whose square lies
+  // inside it has the corners the whole image's search gives, bit for bit. libapriltag's engine
+  // searches the whole image.
   StatusOr<FoundTags> find(const cv::Mat& gray, const cv::Rect& region) const;
   std::vector<TagObservation> refine(const cv::Mat& gray, FoundTags found,
                                      TagDetectionStages* stages = nullptr) const;

@@ -51,7 +51,7 @@ struct TagFrontendResult {
   // Images: searched in a predicted region only, and that region's share of the image.
   bool predicted_region = false;
   double searched_fraction = 1.0;
-  TagDetectionStages stages;  // both searches' when the region's was not borne out
+  TagDetectionStages stages;  // quads and codes: both searches' when the region's failed
 };
 
 // An image's tags found and read in its predicted region (or the whole image), their corners not
@@ -110,7 +110,6 @@ class TagFrontend {
   struct SearchHistory {
     std::vector<TagObservation> last, before;
     TimeNs last_ns = 0, before_ns = 0;
-    bool has_last = false;
     int since_full_search = 0;
   };
 

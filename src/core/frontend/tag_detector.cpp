@@ -183,18 +183,9 @@ TagDetector::TagDetector(const TagDetectorOptions& options, std::unique_ptr<Impl
 TagDetector::~TagDetector() = default;
 
 StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray) const {
-  return detect(gray, cv::Rect(0, 0, gray.cols, gray.rows));
-}
-
-StatusOr<std::vector<TagObservation>> TagDetector::detect(const cv::Mat& gray,
-                                                          const cv::Rect& region,
-                                                          TagDetectionStages* stages) const {
-  auto found = find(gray, region);
+  auto found = find(gray, cv::Rect(0, 0, gray.cols, gray.rows));
   if (!found.ok()) return found.status();
-  TagDetectionStages spent = found.value().stages;
-  auto tags = refine(gray, std::move(found).value(), &spent);
-  if (stages) *stages = spent;
-  return tags;
+  return refine(gray, std::move(found).value());
 }
 
 StatusOr<FoundTags> TagDetector::find(const cv::Mat& gray, const cv::Rect& region) const {

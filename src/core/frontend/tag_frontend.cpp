@@ -138,7 +138,7 @@ StatusOr<LocatedTags> TagFrontend::locateTags(std::size_t camera, TimeNs stamp_n
   // The predicted region, unless it is time for a whole search.
   TagPrediction prediction;
   const bool recent =
-      history.has_last && stamp_ns > history.last_ns &&
+      !history.last.empty() && stamp_ns > history.last_ns &&
       static_cast<double>(stamp_ns - history.last_ns) <= options_.max_prediction_gap_s * 1e9;
   if (recent && history.since_full_search + 1 < options_.full_search_every) {
     prediction = predictTags(history.last, history.last_ns, history.before, history.before_ns,
@@ -174,7 +174,6 @@ StatusOr<LocatedTags> TagFrontend::locateTags(std::size_t camera, TimeNs stamp_n
   history.before_ns = history.last_ns;
   history.last = located.found.tags;
   history.last_ns = stamp_ns;
-  history.has_last = !history.last.empty();
   return located;
 }
 
